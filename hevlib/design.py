@@ -1,0 +1,91 @@
+"""Names shared by every stage: design variables, objectives, responses, and the design space."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+#: The seven design variables, in the column order every array uses.
+DESIGN_VARS: tuple[str, ...] = ("p_eng_kw", "p_mot_kw", "p_gen_kw", "i0", "n_bat", "n_r", "n_s")
+INTEGER_VARS: tuple[str, ...] = ("n_bat", "n_r", "n_s")
+INTEGER_MASK = np.array([v in INTEGER_VARS for v in DESIGN_VARS])
+
+#: The eleven objectives of SPEC section 5 (units: kg, L/100 km, %, g/km x3, km, km/h, -, km/h, m/s^2).
+OBJECTIVES: tuple[str, ...] = (
+    "m_veh", "fc", "accel_dev", "hc", "co", "nox", "e_l", "speed_dev", "diff_soc", "v_max", "f_max",
+)
+#: +1 minimised, -1 maximised (v_max, f_max).
+SENSE = np.array([-1.0 if k in ("v_max", "f_max") else 1.0 for k in OBJECTIVES])
+OBJECTIVE_UNITS = {
+    "m_veh": "kg", "fc": "L/100 km", "accel_dev": "%", "hc": "g/km", "co": "g/km", "nox": "g/km",
+    "e_l": "km", "speed_dev": "km/h", "diff_soc": "-", "v_max": "km/h", "f_max": "m/s^2",
+}
+#: Extra responses every simulation reports beside the objectives.
+EXTRA_RESPONSES: tuple[str, ...] = ("fc_soc_corrected", "eta_drivetrain", "t_0_100_s", "cycle_met")
+RESPONSES: tuple[str, ...] = OBJECTIVES + EXTRA_RESPONSES
+
+
+@dataclass(frozen=True)
+class DesignSpace:
+    """Box bounds of the seven design variables (integers for n_bat, n_r, n_s)."""
+
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @classmethod
+    def from_bounds(cls, bounds: dict[str, tuple[float, float]]) -> DesignSpace:
+        lower = np.array([float(bounds[v][0]) for v in DESIGN_VARS])
+        upper = np.array([float(bounds[v][1]) for v in DESIGN_VARS])
+        if np.any(lower >= upper):
+            bad = DESIGN_VARS[int(np.argmax(lower >= upper))]
+            raise ValueError(f"design_space.{bad}: lower bound must be below upper bound")
+        return cls(lower, upper)
+
+    @property
+    def n(self) -> int:
+        return len(DESIGN_VARS)
+
+    def check(self, x: np.ndarray, *, what: str = "design") -> np.ndarray:
+        """Return ``x`` as a float (n, 7) array; raise ValueError naming the first offending variable."""
+        x = np.asarray(x, dtype=float)
+        if x.ndim == 1:
+            x = x[None, :]
+        if x.ndim != 2 or x.shape[1] != len(DESIGN_VARS):
+            raise ValueError(f"{what}: expected shape (n, {len(DESIGN_VARS)}) in order {DESIGN_VARS}, got {x.shape}")
+        for j, name in enumerate(DESIGN_VARS):
+            col = x[:, j]
+            if not np.all(np.isfinite(col)):
+                raise ValueError(f"{what}: {name} is not finite (NaN or inf) in row {int(np.argmin(np.isfinite(col)))}")
+            tol = 1e-9 * max(1.0, abs(self.upper[j]))
+            out = (col < self.lower[j] - tol) | (col > self.upper[j] + tol)
+            if np.any(out):
+                i = int(np.argmax(out))
+                raise ValueError(
+                    f"{what}: {name}={col[i]:g} in row {i} is outside the design space "
+                    f"[{self.lower[j]:g}, {self.upper[j]:g}]"
+                )
+            if name in INTEGER_VARS and np.any(np.abs(col - np.round(col)) > 1e-9):
+                i = int(np.argmax(np.abs(col - np.round(col)) > 1e-9))
+                raise ValueError(f"{what}: {name}={col[i]:g} in row {i} must be an integer")
+        n_r, n_s = x[:, DESIGN_VARS.index("n_r")], x[:, DESIGN_VARS.index("n_s")]
+        if np.any(n_s >= n_r):
+            i = int(np.argmax(n_s >= n_r))
+            raise ValueError(f"{what}: impossible gear set in row {i}: n_s={n_s[i]:g} must be below n_r={n_r[i]:g}")
+        return x
+
+
+def design_matrix(table: pd.DataFrame, *, what: str = "designs") -> np.ndarray:
+    """The (n, 7) design matrix from a table with the seven design-variable columns."""
+    missing = [v for v in DESIGN_VARS if v not in table.columns]
+    if missing:
+        raise ValueError(f"{what}: missing design-variable column(s) {', '.join(missing)}")
+    return table[list(DESIGN_VARS)].to_numpy(dtype=float)
+
+
+def gear_set_buildable(n_r: np.ndarray, n_s: np.ndarray, n_planets: int = 4, min_planet_teeth: int = 9) -> np.ndarray:
+    """SPEC section 5: n_r > n_s, planet teeth (n_r - n_s)/2 whole and >= 9, (n_r + n_s) divisible by planets."""
+    n_r, n_s = np.asarray(n_r), np.asarray(n_s)
+    diff = n_r - n_s
+    return (diff > 0) & (diff % 2 == 0) & (diff // 2 >= min_planet_teeth) & ((n_r + n_s) % n_planets == 0)

@@ -1,0 +1,291 @@
+"""The params contract: ``params.yaml`` validated by a typed schema at the start of every stage.
+
+An unknown key, a wrong type or an out-of-range value raises :class:`ParamsError` whose message is a
+single line naming the key (``doe.n_lhs: ...``). Stages catch it, print it, exit non-zero and write
+nothing.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from hevlib.design import DESIGN_VARS, OBJECTIVES, DesignSpace
+
+
+class ParamsError(ValueError):
+    """A one-line, key-naming error in params.yaml."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+
+
+Pos = Annotated[float, Field(gt=0)]
+NonNeg = Annotated[float, Field(ge=0)]
+Frac = Annotated[float, Field(ge=0, le=1)]
+Seed = Annotated[int, Field(ge=0, le=2**32 - 1)]
+
+
+# --------------------------------------------------------------------------------------------- cycles
+class CycleSpec(_Strict):
+    file: str = Field(pattern=r"^[A-Za-z0-9_.-]+\.csv$")
+    grade_pct: float = Field(ge=-30, le=30, description="road grade in percent (rise/run x 100)")
+
+
+class CyclesParams(_Strict):
+    raw_dir: str = "data/raw/cycles"
+    step_s: Pos = 1.0
+    sizing: str = "udds"
+    validation: str = "ftp"
+    cycles: dict[str, CycleSpec]
+
+    @model_validator(mode="after")
+    def _known_roles(self):
+        for role in ("sizing", "validation"):
+            if getattr(self, role) not in self.cycles:
+                raise ValueError(f"{role}: {getattr(self, role)!r} is not one of cycles.cycles")
+        return self
+
+
+# ------------------------------------------------------------------------------------------- baseline
+class ConventionalParams(_Strict):
+    p_eng_kw: Annotated[float, Field(gt=10, le=300)] = 70.0
+    test_mass_kg: Annotated[float, Field(gt=500, le=4000)] = 1195.0
+    gear_ratios: list[Pos] = [13.195, 7.3486, 4.9126, 3.4916, 2.5984]
+    upshift_kmh: list[Pos] = [24.0, 40.0, 64.0, 75.0]
+    idle_speed_rpm: Annotated[float, Field(gt=300, le=2000)] = 800.0
+
+    @model_validator(mode="after")
+    def _shift_table(self):
+        if len(self.upshift_kmh) != len(self.gear_ratios) - 1:
+            raise ValueError("upshift_kmh: needs one speed fewer than gear_ratios")
+        if sorted(self.upshift_kmh) != list(self.upshift_kmh):
+            raise ValueError("upshift_kmh: speeds must increase")
+        if sorted(self.gear_ratios, reverse=True) != list(self.gear_ratios):
+            raise ValueError("gear_ratios: ratios must decrease from first to top gear")
+        return self
+
+
+class PriusParams(_Strict):
+    p_eng_kw: Pos = 43.0
+    p_mot_kw: Pos = 31.0
+    p_gen_kw: Pos = 15.0
+    i0: Pos = 3.93
+    n_bat: Annotated[int, Field(ge=1, le=400)] = 25
+    n_r: Annotated[int, Field(ge=20, le=200)] = 78
+    n_s: Annotated[int, Field(ge=10, le=200)] = 30
+    test_mass_kg: Annotated[float, Field(gt=500, le=4000)] = 1404.0
+
+
+class BaselineParams(_Strict):
+    components_dir: str = "data/raw/components"
+    battery: Literal["li_ion", "nimh"] = "li_ion"
+    battery_temperature_c: float = Field(41.0, ge=-20, le=60)
+    conventional: ConventionalParams = ConventionalParams()
+    prius: PriusParams = PriusParams()
+
+
+# --------------------------------------------------------------------------------------- simulation
+class SimParams(_Strict):
+    soc_init: Frac = 0.6
+    soc_min: Frac = 0.4
+    soc_max: Frac = 0.8
+    mass_factor: Annotated[float, Field(ge=1.0, le=1.5)] = 1.05
+    adhesion_coefficient: Annotated[float, Field(gt=0, le=1.5)] = 0.9
+    driver_lookahead: Literal["next_step"] = "next_step"
+    regen_fraction_max: Frac = 0.8
+    planetary_efficiency: Annotated[float, Field(gt=0.8, le=1.0)] = 0.98
+    final_drive_efficiency: Annotated[float, Field(gt=0.8, le=1.0)] = 0.97
+    pack_current_max_a: Pos = 200.0
+    perf_dt_s: Annotated[float, Field(gt=0, le=1)] = 0.1
+    perf_max_time_s: Annotated[float, Field(gt=10, le=300)] = 60.0
+
+    @model_validator(mode="after")
+    def _window(self):
+        if not self.soc_min < self.soc_init < self.soc_max:
+            raise ValueError("soc_init: must lie strictly inside (soc_min, soc_max)")
+        return self
+
+
+class Trapezoid(_Strict):
+    """Fuzzy threshold: membership of 'above' rises linearly from ``value - width/2`` to ``value + width/2``."""
+
+    value: float
+    width: NonNeg = 0.0
+
+
+class PmsParams(_Strict):
+    soc_low: Trapezoid = Trapezoid(value=0.5, width=0.04)
+    soc_high: Trapezoid = Trapezoid(value=0.7, width=0.04)
+    grade_low: Trapezoid = Trapezoid(value=0.02, width=0.01)
+    grade_high: Trapezoid = Trapezoid(value=0.08, width=0.02)
+    speed_high_kmh: Trapezoid = Trapezoid(value=45.0, width=6.0)
+    torque_low: Trapezoid = Trapezoid(value=0.15, width=0.05)
+    torque_high: Trapezoid = Trapezoid(value=0.7, width=0.1)
+    engine_on_threshold: Frac = 0.5
+    engine_min_on_s: NonNeg = 5.0
+    engine_min_off_s: NonNeg = 3.0
+    engine_min_power_kw: NonNeg = 6.0
+    charge_power_fraction: Frac = 0.25
+    soc_target: Frac = 0.6
+
+    @model_validator(mode="after")
+    def _ordered(self):
+        for lo, hi in (("soc_low", "soc_high"), ("grade_low", "grade_high"), ("torque_low", "torque_high")):
+            if getattr(self, lo).value >= getattr(self, hi).value:
+                raise ValueError(f"{lo}: value must be below {hi}.value")
+        return self
+
+
+# ----------------------------------------------------------------------------------- design space
+Bounds = tuple[float, float]
+
+
+class DesignSpaceParams(_Strict):
+    p_eng_kw: Bounds = (25.0, 70.0)
+    p_mot_kw: Bounds = (20.0, 60.0)
+    p_gen_kw: Bounds = (5.0, 30.0)
+    i0: Bounds = (2.0, 4.5)
+    n_bat: Bounds = (10, 60)
+    n_r: Bounds = (50, 90)
+    n_s: Bounds = (18, 40)
+
+    @model_validator(mode="after")
+    def _bounds(self):
+        for name in DESIGN_VARS:
+            lo, hi = getattr(self, name)
+            if not lo < hi:
+                raise ValueError(f"{name}: lower bound {lo:g} must be below upper bound {hi:g}")
+            if lo <= 0:
+                raise ValueError(f"{name}: bounds must be positive")
+        return self
+
+    def space(self) -> DesignSpace:
+        return DesignSpace.from_bounds({v: getattr(self, v) for v in DESIGN_VARS})
+
+
+# --------------------------------------------------------------------------------------------- doe
+class DoeParams(_Strict):
+    method: Literal["l27", "lhs", "both"] = "l27"
+    n_lhs: Annotated[int, Field(ge=1, le=1_000_000)] = 300
+    seed: Seed = 42
+    batch_size: Annotated[int, Field(ge=1, le=100_000)] = 1000
+
+
+# -------------------------------------------------------------------------------------- surrogates
+class BnnParams(_Strict):
+    hidden: list[Annotated[int, Field(ge=1, le=512)]] = [20]
+    lr: Pos = 0.01
+    max_epochs: Annotated[int, Field(ge=1, le=100_000)] = 3500
+    error_goal: NonNeg = 1e-10
+    train_fraction: Annotated[float, Field(gt=0, lt=1)] = 0.7
+    evidence_every: Annotated[int, Field(ge=1)] = 10
+    seed: Seed = 0
+
+
+class HeldoutParams(_Strict):
+    n: Annotated[int, Field(ge=2, le=100_000)] = 200
+    seed: Seed = 1234
+
+
+class SurrogateParams(_Strict):
+    bnn: BnnParams = BnnParams()
+    heldout: HeldoutParams = HeldoutParams()
+
+
+# ---------------------------------------------------------------------------------------- optimise
+class AlgoParams(_Strict):
+    pop_size: Annotated[int, Field(ge=4, le=100_000)] = 200
+    n_gen: Annotated[int, Field(ge=1, le=100_000)] = 500
+    crossover_prob: Frac = 0.6
+    mutation_prob: Frac = 0.05
+    seed: Seed = 1
+    surrogate: Literal["bnn", "regression"] = "bnn"
+    # algorithm-specific knobs; unused ones must keep their defaults
+    ref_dirs_partitions: list[Annotated[int, Field(ge=0, le=20)]] = [2, 1]
+    n_neighbors: Annotated[int, Field(ge=2, le=1000)] = 20
+    decomposition: Literal["tchebicheff", "pbi"] = "pbi"
+    penalty: NonNeg = 1000.0
+    n_weights: Annotated[int, Field(ge=1, le=10_000)] = 50
+
+
+class OptimiseParams(_Strict):
+    hv_samples: Annotated[int, Field(ge=100, le=10_000_000)] = 200_000
+    hv_seed: Seed = 7
+    algorithms: dict[Literal["nsga3", "moead", "moga"], AlgoParams]
+
+
+# ------------------------------------------------------------------------------------------ screen
+class ScreenParams(_Strict):
+    gen_below_motor: bool = True
+    speed_dev_max_kmh: Pos = 10.0
+    mass_max_kg: Pos = 1195.0
+    buildable_gear_set: bool = True
+    n_keep: Annotated[int, Field(ge=1)] = 78
+    n_pick: Annotated[int, Field(ge=1)] = 15
+    pick: Literal["random", "diverse"] = "random"
+    seed: Seed = 2024
+
+
+# ---------------------------------------------------------------------------------------- validate
+class ValidateParams(_Strict):
+    cycles: list[str] = ["ftp", "hwfet"]
+
+
+class Params(_Strict):
+    cycles: CyclesParams
+    baseline: BaselineParams = BaselineParams()
+    sim: SimParams = SimParams()
+    pms: PmsParams = PmsParams()
+    design_space: DesignSpaceParams = DesignSpaceParams()
+    doe: DoeParams = DoeParams()
+    surrogate: SurrogateParams = SurrogateParams()
+    optimise: OptimiseParams | None = None
+    screen: ScreenParams = ScreenParams()
+    validation: ValidateParams = Field(ValidateParams(), alias="validate")
+
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+def _format_error(err: ValidationError) -> str:
+    first = err.errors()[0]
+    loc = ".".join(str(p) for p in first["loc"] if p not in ("function-after",))
+    msg = first["msg"]
+    if first["type"] == "extra_forbidden":
+        msg = "unknown key"
+    elif msg.startswith("Value error, "):
+        msg = msg[len("Value error, "):]
+        head, sep, rest = msg.partition(": ")
+        if sep and head.isidentifier():  # a model check naming its own field: fold into the key path
+            loc, msg = (f"{loc}.{head}" if loc else head), rest
+    n = len(err.errors())
+    more = f" (and {n - 1} more error{'s' if n > 2 else ''})" if n > 1 else ""
+    return f"params.yaml: {loc}: {msg}{more}" if loc else f"params.yaml: {msg}{more}"
+
+
+def parse_params(data: dict) -> Params:
+    try:
+        return Params.model_validate(data)
+    except ValidationError as err:
+        raise ParamsError(_format_error(err)) from None
+
+
+def load_params(path: str | Path = "params.yaml") -> Params:
+    """Read and validate the params file; raise ParamsError (one line naming the key) on any problem."""
+    path = Path(path)
+    if not path.exists():
+        raise ParamsError(f"{path}: no such params file")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        raise ParamsError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
+    if not isinstance(data, dict):
+        raise ParamsError(f"{path}: top level must be a mapping of stage groups")
+    return parse_params(data)
+
+
+__all__ = ["Params", "ParamsError", "load_params", "parse_params", "OBJECTIVES"]
