@@ -1,0 +1,1 @@
+"""Powertrain physics as scalar numba functions (callable from Python and from the simulation kernel)."""

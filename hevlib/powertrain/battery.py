@@ -1,0 +1,40 @@
+"""Rint battery pack of ``n_bat`` series modules: terminal power, current and limits (numba)."""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+
+@njit(cache=True, inline="always")
+def current_for_power(p_w: float, voc: float, r_dis: float, r_chg: float) -> float:
+    """Pack current (A, + discharge) that delivers terminal power ``p_w`` (W, + discharge).
+
+    Discharge: P = V I - R I^2 (smaller root); charge: P = V I - R I^2 with I < 0.
+    """
+    if p_w >= 0.0:
+        disc = voc * voc - 4.0 * r_dis * p_w
+        if disc < 0.0:
+            disc = 0.0
+        return (voc - math.sqrt(disc)) / (2.0 * r_dis)
+    disc = voc * voc - 4.0 * r_chg * p_w  # p_w < 0 so disc > voc^2
+    return (voc - math.sqrt(disc)) / (2.0 * r_chg)
+
+
+@njit(cache=True, inline="always")
+def power_limits(voc: float, r_dis: float, r_chg: float, v_min: float, v_max: float, i_max: float,
+                 soc: float, soc_min: float, soc_max: float, capacity_as: float, eta_c: float,
+                 dt: float) -> tuple[float, float]:
+    """(max discharge, max charge) terminal power in W, both >= 0.
+
+    Limits: terminal voltage within [v_min, v_max], |current| <= i_max, matched-load power, and the
+    SOC window (the step may not take SOC outside [soc_min, soc_max]).
+    """
+    i_dis = min(i_max, (voc - v_min) / r_dis, voc / (2.0 * r_dis), (soc - soc_min) * capacity_as / dt)
+    i_dis = max(i_dis, 0.0)
+    p_dis = voc * i_dis - r_dis * i_dis * i_dis
+    i_chg = min(i_max, (v_max - voc) / r_chg, (soc_max - soc) * capacity_as / (dt * eta_c))
+    i_chg = max(i_chg, 0.0)
+    p_chg = voc * i_chg + r_chg * i_chg * i_chg
+    return max(p_dis, 0.0), max(p_chg, 0.0)
