@@ -47,8 +47,12 @@ class DesignSpace:
     def n(self) -> int:
         return len(DESIGN_VARS)
 
-    def check(self, x: np.ndarray, *, what: str = "design") -> np.ndarray:
-        """Return ``x`` as a float (n, 7) array; raise ValueError naming the first offending variable."""
+    def check(self, x: np.ndarray, *, what: str = "design", integers: bool = True) -> np.ndarray:
+        """Return ``x`` as a float (n, 7) array; raise ValueError naming the first offending variable.
+
+        ``integers=False`` accepts the continuous relaxation of n_bat, n_r, n_s (surrogates, optimisers
+        before repair); the simulator always requires whole numbers.
+        """
         x = np.asarray(x, dtype=float)
         if x.ndim == 1:
             x = x[None, :]
@@ -66,7 +70,7 @@ class DesignSpace:
                     f"{what}: {name}={col[i]:g} in row {i} is outside the design space "
                     f"[{self.lower[j]:g}, {self.upper[j]:g}]"
                 )
-            if name in INTEGER_VARS and np.any(np.abs(col - np.round(col)) > 1e-9):
+            if integers and name in INTEGER_VARS and np.any(np.abs(col - np.round(col)) > 1e-9):
                 i = int(np.argmax(np.abs(col - np.round(col)) > 1e-9))
                 raise ValueError(f"{what}: {name}={col[i]:g} in row {i} must be an integer")
         n_r, n_s = x[:, DESIGN_VARS.index("n_r")], x[:, DESIGN_VARS.index("n_s")]
