@@ -3,6 +3,33 @@
 All logic lives in this package; ``stages/`` holds thin typer commands only.
 """
 
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
 __version__ = "0.1.0"
 #: Bumped whenever the simulator's physics change: stored with every simulated artifact.
 MODEL_VERSION = "sim-1"
+
+#: Modules compiled by numba. Its on-disk cache keys a kernel on its own file only, not on the
+#: modules it calls, so the cache lives in a folder named after a hash of all of them: editing any
+#: kernel module starts a fresh cache instead of silently reusing stale machine code.
+_KERNEL_SOURCES = ("control.py", "drive.py", "performance.py", "powertrain")
+
+
+def _kernel_hash() -> str:
+    root = Path(__file__).parent
+    h = hashlib.sha256()
+    for name in _KERNEL_SOURCES:
+        path = root / name
+        for f in sorted(path.rglob("*.py")) if path.is_dir() else [path]:
+            h.update(f.name.encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()[:16]
+
+
+if "NUMBA_CACHE_DIR" not in os.environ:
+    _base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hev-sizing" / "numba"
+    os.environ["NUMBA_CACHE_DIR"] = str(_base / _kernel_hash())

@@ -1,20 +1,32 @@
 """Component data as typed, immutable objects, loaded from ADVISOR's published data (data/raw/components).
 
 Maps keep the source axes in SI units. The normalised form written by the ``components`` stage
-(``data/components/*.npz``) is what the simulator reads; raw YAML is read only by that stage.
+(``data/components/*.npz`` + ``library.json``) is what the simulator reads; raw YAML is read only by
+that stage. Loading normalises the raw maps in three documented ways (listed in ``library.meta``):
+
+- engine maps are extended linearly in torque (ADVISOR's lookup tables extrapolate linearly) down to
+  zero torque and up to the peak of the full-load curve, so every operating point at or below full
+  load lies inside the grid (FC_PRIUS_JPN starts at 8.5 N*m; FC_SI63_emis stops at 135.8 N*m below
+  its 145.2 N*m full-load peak);
+- machine efficiency maps are reduced to the first quadrant (|speed|, |torque|; the source maps are
+  mirror-symmetric), and the zero-speed row and zero-torque column, which the sources fill with a
+  constant instead of a measurement, take the nearest measured row / column;
+- the conventional body takes the study's Table 1 (Cd, frontal area, CG height, wheel radius).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import io
 import json
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from hevlib.io import atomic_path, write_json
+from hevlib.io import atomic_path, read_table, write_json
 
 RPM = np.pi / 30.0  # rad/s per rpm
 
@@ -28,7 +40,10 @@ def _ro(a) -> np.ndarray:
 def _read_yaml(path: Path) -> dict:
     if not path.exists():
         raise FileNotFoundError(f"{path}: component file missing")
-    data = yaml.safe_load(path.read_text())
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        raise ValueError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
     if not isinstance(data, dict):
         raise ValueError(f"{path}: not a component mapping")
     return data
@@ -38,6 +53,21 @@ def _need(data: dict, key: str, path: Path):
     if key not in data or data[key] is None:
         raise ValueError(f"{path}: missing key {key!r}")
     return data[key]
+
+
+def interp_map(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, x, y) -> np.ndarray:
+    """Bilinear interpolation of ``z[i, j] = f(xs[i], ys[j])`` at ``(x, y)`` (broadcast), clamped to the grid.
+
+    The vectorised twin of ``hevlib.powertrain.lookup.interp2`` (same clamping), for analysis and plots.
+    """
+    x = np.clip(np.asarray(x, dtype=float), xs[0], xs[-1])
+    y = np.clip(np.asarray(y, dtype=float), ys[0], ys[-1])
+    i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, len(xs) - 2)
+    j = np.clip(np.searchsorted(ys, y, side="right") - 1, 0, len(ys) - 2)
+    fx = (x - xs[i]) / (xs[i + 1] - xs[i])
+    fy = (y - ys[j]) / (ys[j + 1] - ys[j])
+    return ((1 - fx) * ((1 - fy) * z[i, j] + fy * z[i, j + 1])
+            + fx * ((1 - fy) * z[i + 1, j] + fy * z[i + 1, j + 1]))
 
 
 @dataclass(frozen=True)
@@ -52,7 +82,7 @@ class EngineMap:
     hc_g_s: np.ndarray
     co_g_s: np.ndarray
     nox_g_s: np.ndarray
-    peak_power_kw: float                # max of max_torque x speed on the speed axis
+    peak_power_kw: float                # max of max_torque x speed (torque curve linear between axis points)
     engine_mass_kg: float               # base engine + accessories (scales with power)
     fuel_system_mass_kg: float          # does not scale (ADVISOR rule)
     inertia_kg_m2: float
@@ -69,6 +99,8 @@ class EngineMap:
                 raise ValueError(f"engine {self.name}: {key} must be finite and non-negative")
         if len(self.max_torque_nm) != ns or np.any(np.diff(self.speed_rad_s) <= 0):
             raise ValueError(f"engine {self.name}: max_torque_nm / speed axis inconsistent")
+        if np.any(np.diff(self.torque_nm) <= 0):
+            raise ValueError(f"engine {self.name}: torque axis must be strictly increasing")
 
     @property
     def max_speed_rad_s(self) -> float:
@@ -78,18 +110,31 @@ class EngineMap:
     def min_speed_rad_s(self) -> float:
         return float(self.speed_rad_s[0])
 
+    def max_torque_at(self, speed_rad_s) -> np.ndarray:
+        """Full-load torque at ``speed_rad_s`` (linear between axis points, clamped at the ends)."""
+        return np.interp(speed_rad_s, self.speed_rad_s, self.max_torque_nm)
+
+    def rate_g_s(self, key: str, speed_rad_s, torque_nm) -> np.ndarray:
+        """Map ``key`` (``fuel``, ``hc``, ``co``, ``nox``) in g/s at the given points (bilinear, clamped)."""
+        z = getattr(self, f"{key}_g_s")
+        return interp_map(self.speed_rad_s, self.torque_nm, z, speed_rad_s, torque_nm)
+
     def bsfc_g_per_kwh(self) -> np.ndarray:
         """BSFC on the grid (NaN above full load or at zero power)."""
         p_kw = self.speed_rad_s[:, None] * self.torque_nm[None, :] / 1e3
         with np.errstate(divide="ignore", invalid="ignore"):
             bsfc = self.fuel_g_s / p_kw * 3600.0
-        above = self.torque_nm[None, :] > self.max_torque_nm[:, None] + 1e-9
+        above = self.torque_nm[None, :] > self.max_torque_nm[:, None] * (1 + 1e-9)
         bsfc[above | (p_kw <= 0)] = np.nan
         return bsfc
 
     def min_bsfc_g_per_kwh(self) -> float:
         """Lowest BSFC over grid points at or below full load."""
         return float(np.nanmin(self.bsfc_g_per_kwh()))
+
+    def max_efficiency(self) -> float:
+        """Peak brake efficiency (fuel LHV to shaft) at the minimum BSFC."""
+        return 3.6e6 / (self.min_bsfc_g_per_kwh() * self.lhv_j_per_g)
 
 
 @dataclass(frozen=True)
@@ -99,7 +144,7 @@ class MachineMap:
     name: str
     speed_rad_s: np.ndarray             # >= 0
     torque_nm: np.ndarray               # >= 0
-    efficiency: np.ndarray              # (n_speed, n_torque), used for motoring (P_e = P_m/eff) and generating (P_e = P_m*eff)
+    efficiency: np.ndarray              # (n_speed, n_torque); motoring P_e = P_m/eff, generating P_m*eff
     max_torque_nm: np.ndarray           # magnitude limit vs speed_rad_s
     peak_power_kw: float
     mass_kg: float
@@ -110,10 +155,21 @@ class MachineMap:
             raise ValueError(f"machine {self.name}: efficiency map shape mismatch")
         if np.any(self.efficiency <= 0) or np.any(self.efficiency > 1):
             raise ValueError(f"machine {self.name}: efficiency must lie in (0, 1]")
+        if len(self.max_torque_nm) != len(self.speed_rad_s) or np.any(np.diff(self.speed_rad_s) <= 0):
+            raise ValueError(f"machine {self.name}: max_torque_nm / speed axis inconsistent")
 
     @property
     def max_speed_rad_s(self) -> float:
         return float(self.speed_rad_s[-1])
+
+    def max_torque_at(self, speed_rad_s) -> np.ndarray:
+        """Torque magnitude limit at ``|speed_rad_s|`` (linear between axis points, clamped)."""
+        return np.interp(np.abs(speed_rad_s), self.speed_rad_s, self.max_torque_nm)
+
+    def efficiency_at(self, speed_rad_s, torque_nm) -> np.ndarray:
+        """Efficiency at ``(|speed|, |torque|)`` (bilinear, clamped)."""
+        return interp_map(self.speed_rad_s, self.torque_nm, self.efficiency, np.abs(speed_rad_s),
+                          np.abs(torque_nm))
 
 
 @dataclass(frozen=True)
@@ -133,8 +189,12 @@ class BatteryModule:
     temperature_c: float
 
     def energy_wh(self) -> float:
-        """Module energy: capacity x mean OCV over SOC (trapezoid)."""
+        """Module energy: capacity x OCV integrated over SOC 0..1 (trapezoid)."""
         return float(self.capacity_ah * np.trapezoid(self.ocv_v, self.soc))
+
+    def mean_ocv_v(self) -> float:
+        """OCV averaged over the SOC range (the module's 'nominal' voltage)."""
+        return float(np.trapezoid(self.ocv_v, self.soc) / (self.soc[-1] - self.soc[0]))
 
 
 @dataclass(frozen=True)
@@ -184,7 +244,7 @@ class Gearbox:
 
     name: str
     ratios: np.ndarray
-    mass_kg: float
+    mass_kg: float                      # gearbox + final drive (TX_5SPD_SI transmission mass)
     loss_coefficients: np.ndarray       # a, b, c, d, e, f of P_loss = (a r + b) w + (c/r + d)|T| + e P + f
 
 
@@ -192,6 +252,18 @@ class Gearbox:
 class Accessory:
     electrical_w: float
     mechanical_w: float
+
+
+_COMPONENT_TYPES = (EngineMap, MachineMap, BatteryModule, Body, Wheel, PowerSplit, Gearbox, Accessory)
+
+
+def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """``np.savez`` with fixed zip timestamps and key order, so equal arrays give equal bytes."""
+    with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_STORED) as zf:
+        for key in sorted(arrays):
+            buf = io.BytesIO()
+            np.lib.format.write_array(buf, np.ascontiguousarray(arrays[key]), allow_pickle=False)
+            zf.writestr(zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0)), buf.getvalue())
 
 
 @dataclass(frozen=True)
@@ -218,23 +290,27 @@ class ComponentLibrary:
 
     # ------------------------------------------------------------------ persistence (normalised form)
     def save(self, out_dir: str | Path) -> list[Path]:
-        """Write each component as ``<field>.npz`` (arrays) plus ``library.json`` (scalars, names)."""
+        """Write each component as ``<field>.npz`` (arrays) plus ``library.json`` (scalars, names).
+
+        Byte-for-byte deterministic; other ``*.npz`` files left in ``out_dir`` by older runs are removed.
+        """
         out_dir = Path(out_dir)
         written, index = [], {}
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             if dataclasses.is_dataclass(value):
-                arrays = {k: v for k, v in dataclasses.asdict(value).items() if isinstance(v, np.ndarray)}
-                scalars = {k: v for k, v in dataclasses.asdict(value).items() if not isinstance(v, np.ndarray)}
+                items = {g.name: getattr(value, g.name) for g in dataclasses.fields(value)}
+                arrays = {k: v for k, v in items.items() if isinstance(v, np.ndarray)}
+                scalars = {k: v for k, v in items.items() if not isinstance(v, np.ndarray)}
                 index[f.name] = {"type": type(value).__name__, "scalars": scalars}
                 path = out_dir / f"{f.name}.npz"
-                with atomic_path(path) as tmp:
-                    with open(tmp, "wb") as fh:
-                        np.savez(fh, **arrays)
+                _write_npz(path, arrays)
                 written.append(path)
             else:
                 index[f.name] = value
         write_json(out_dir / "library.json", index)
+        for stale in set(out_dir.glob("*.npz")) - set(written):
+            stale.unlink()
         return [*written, out_dir / "library.json"]
 
     @classmethod
@@ -242,10 +318,12 @@ class ComponentLibrary:
         src_dir = Path(src_dir)
         index_path = src_dir / "library.json"
         if not index_path.exists():
-            raise FileNotFoundError(f"{index_path}: missing; run `hev components` (dvc repro components) first")
-        index = json.loads(index_path.read_text())
-        types = {t.__name__: t for t in (EngineMap, MachineMap, BatteryModule, Body, Wheel, PowerSplit,
-                                         Gearbox, Accessory)}
+            raise FileNotFoundError(f"{index_path}: missing; run `hev components` (dvc repro components)")
+        try:
+            index = json.loads(index_path.read_text())
+        except json.JSONDecodeError as err:
+            raise ValueError(f"{index_path}: not valid JSON ({err.msg})") from None
+        types = {t.__name__: t for t in _COMPONENT_TYPES}
         kwargs = {}
         for f in dataclasses.fields(cls):
             entry = index.get(f.name)
@@ -253,12 +331,65 @@ class ComponentLibrary:
                 path = src_dir / f"{f.name}.npz"
                 if not path.exists():
                     raise FileNotFoundError(f"{path}: missing component map; run `hev components`")
-                with np.load(path) as npz:
+                with np.load(path, allow_pickle=False) as npz:
                     arrays = {k: _ro(npz[k]) for k in npz.files}
                 kwargs[f.name] = types[entry["type"]](**entry["scalars"], **arrays)
+            elif f.name == "meta":
+                kwargs[f.name] = entry or {}
+            elif entry is None:
+                raise ValueError(f"{index_path}: missing entry {f.name!r}; re-run `hev components`")
             else:
-                kwargs[f.name] = entry if entry is not None else {}
+                kwargs[f.name] = entry
         return cls(**kwargs)
+
+
+# --------------------------------------------------------------------------- best-efficiency line
+def best_efficiency_line(engine: EngineMap, *, n_power: int = 61, n_speed: int = 361,
+                         load_limit: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The engine's minimum-fuel operating line: for each power, the speed and torque that burn least fuel.
+
+    Returns ``(power_w, speed_rad_s, torque_nm)``, ``n_power`` points from 0 to the peak power
+    available within ``load_limit`` x full-load torque. Each point minimises the fuel rate (bilinear on
+    the map) with torque ``P / w`` at or below ``load_limit`` x full load, over ``n_speed`` speeds
+    across the map's speed axis plus the exact speeds where ``P / w`` meets that limit (the optimum of
+    a map whose fuel rate rises linearly with torque lies there). At zero power it is the lowest map
+    speed at zero torque. The speed is made non-decreasing in power (so a controller can interpolate
+    it smoothly) where that stays within the load limit. A scaled engine (torque scaling, fixed speed
+    axis) has the same line with power and torque multiplied by the scale factor. For the Prius map
+    the line runs along full load; ``load_limit`` < 1 keeps a torque reserve.
+    """
+    if not 0 < load_limit <= 1:
+        raise ValueError(f"load_limit: {load_limit:g} must lie in (0, 1]")
+
+    def t_lim(speed):
+        return engine.max_torque_at(speed) * load_limit
+
+    w = np.linspace(engine.speed_rad_s[0], engine.speed_rad_s[-1], n_speed)
+    power_w = np.linspace(0.0, float(np.max(w * t_lim(w))), n_power)
+    torque = power_w[:, None] / w[None, :]                               # (n_power, n_speed)
+    fuel = engine.rate_g_s("fuel", np.broadcast_to(w, torque.shape), torque)
+    fuel = np.where(torque <= t_lim(w)[None, :] * (1 + 1e-12), fuel, np.inf)
+    best = np.argmin(fuel, axis=1)
+    speed, best_fuel = w[best], fuel[np.arange(n_power), best]
+    # candidates on the load limit: bisect w * t_lim(w) = P in every grid interval where it crosses P
+    margin = w[None, :] * t_lim(w)[None, :] - power_w[:, None]
+    k, i = np.nonzero((margin[:, :-1] >= 0) != (margin[:, 1:] >= 0))
+    lo, hi, p_k = w[i], w[i + 1], power_w[k]
+    lo_ok = margin[k, i] >= 0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        same_as_lo = (mid * t_lim(mid) - p_k >= 0) == lo_ok
+        lo, hi = np.where(same_as_lo, mid, lo), np.where(same_as_lo, hi, mid)
+    w_b = np.where(lo_ok, lo, hi)                                         # the feasible end
+    f_b = engine.rate_g_s("fuel", w_b, p_k / w_b)
+    for kk, wb, fb in zip(k, w_b, f_b, strict=True):
+        if fb < best_fuel[kk]:
+            speed[kk], best_fuel[kk] = wb, fb
+    # non-decreasing speed where the running maximum stays feasible
+    for kk in range(1, n_power):
+        if speed[kk] < speed[kk - 1] and power_w[kk] / speed[kk - 1] <= t_lim(speed[kk - 1]):
+            speed[kk] = speed[kk - 1]
+    return power_w, speed, power_w / speed
 
 
 # ------------------------------------------------------------------------------------- loaders
@@ -268,21 +399,46 @@ def _peak_power_kw(speed: np.ndarray, torque: np.ndarray) -> float:
     return float(np.max(s * np.interp(s, speed, torque)) / 1e3)
 
 
-def load_engine(path: Path) -> EngineMap:
+def _cover_full_load(torque: np.ndarray, max_torque: np.ndarray,
+                     maps: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray], list[str]]:
+    """Extend the torque axis linearly to 0 N*m and to the full-load peak (clipped at >= 0)."""
+    notes = []
+    if torque[0] > 0:
+        f = torque[0] / (torque[1] - torque[0])
+        maps = {k: np.hstack([np.maximum(m[:, :1] - f * (m[:, 1:2] - m[:, :1]), 0.0), m])
+                for k, m in maps.items()}
+        torque = np.concatenate([[0.0], torque])
+        notes.append(f"torque axis extended linearly from {torque[1]:.4g} down to 0 N*m")
+    t_top = float(np.max(max_torque))
+    if t_top > torque[-1] * (1 + 1e-9):
+        f = (t_top - torque[-1]) / (torque[-1] - torque[-2])
+        maps = {k: np.hstack([m, np.maximum(m[:, -1:] + f * (m[:, -1:] - m[:, -2:-1]), 0.0)])
+                for k, m in maps.items()}
+        notes.append(f"torque axis extended linearly from {torque[-1]:.4g} up to the full-load peak "
+                     f"{t_top:.4g} N*m")
+        torque = np.concatenate([torque, [t_top]])
+    return torque, maps, notes
+
+
+def load_engine(path: Path, notes: list[str] | None = None) -> EngineMap:
+    """Engine map from ADVISOR YAML, its torque axis extended to cover 0 .. full load (see module doc)."""
     d = _read_yaml(path)
     mass = _need(d, "mass_model", path)
     speed = _ro(_need(d, "speed_axis_rad_s", path))
     tmax = _ro(_need(d, "max_torque_nm", path))
     fuel_props = _need(d, "fuel_properties", path)
+    maps = {k: np.array(_need(d, f"{k}_map_g_per_s", path), dtype=float) for k in ("fuel", "hc", "co", "nox")}
+    torque_src = np.array(_need(d, "torque_axis_nm", path), dtype=float)
+    torque, maps, extended = _cover_full_load(torque_src, tmax, maps)
+    name = str(d.get("source", path.stem)).split()[-1]
+    if notes is not None:
+        notes.extend(f"{name}: {n}" for n in extended)
     return EngineMap(
-        name=str(d.get("source", path.stem)).split()[-1],
+        name=name,
         speed_rad_s=speed,
-        torque_nm=_ro(_need(d, "torque_axis_nm", path)),
+        torque_nm=_ro(torque),
         max_torque_nm=tmax,
-        fuel_g_s=_ro(_need(d, "fuel_map_g_per_s", path)),
-        hc_g_s=_ro(_need(d, "hc_map_g_per_s", path)),
-        co_g_s=_ro(_need(d, "co_map_g_per_s", path)),
-        nox_g_s=_ro(_need(d, "nox_map_g_per_s", path)),
+        fuel_g_s=_ro(maps["fuel"]), hc_g_s=_ro(maps["hc"]), co_g_s=_ro(maps["co"]), nox_g_s=_ro(maps["nox"]),
         peak_power_kw=_peak_power_kw(speed, tmax),
         engine_mass_kg=float(mass["base_engine_mass_kg"] + mass["accessories_mass_kg"]),
         fuel_system_mass_kg=float(mass["fuel_system_mass_kg"]),
@@ -292,18 +448,33 @@ def load_engine(path: Path) -> EngineMap:
     )
 
 
-def load_machine(path: Path, *, generator: bool) -> MachineMap:
-    """Motor (speed >= 0, torque +/-) or generator (speed +/-, torque +/-) reduced to |speed|, |torque|."""
+def load_machine(path: Path, *, generator: bool, notes: list[str] | None = None) -> MachineMap:
+    """Motor (speed >= 0, torque +/-) or generator (speed +/-, torque +/-) reduced to |speed|, |torque|.
+
+    The zero-speed row and zero-torque column are fills in both sources (not measurements); they take
+    the nearest measured row / column, so low-speed and low-torque efficiency is not overstated.
+    """
     d = _read_yaml(path)
     speed = np.array(_need(d, "speed_axis_rad_s", path), dtype=float)
     torque = np.array(_need(d, "torque_axis_nm", path), dtype=float)
     eff = np.array(_need(d, "efficiency_map", path), dtype=float)
-    tmax = np.array(_need(d, "max_torque_nm" if generator else "max_torque_motoring_nm", path), dtype=float)
+    tmax_key = "max_torque_nm" if generator else "max_torque_motoring_nm"
+    tmax = np.abs(np.array(_need(d, tmax_key, path), dtype=float))
     rows, cols = speed >= 0, torque >= 0
     speed, tmax, eff = speed[rows], tmax[rows], eff[rows][:, cols]
     torque = torque[cols]
+    name = str(d.get("source", path.stem)).split()[-1]
+    changed = []
+    if speed[0] == 0 and not np.array_equal(eff[0], eff[1]):
+        eff[0] = eff[1]
+        changed.append(f"zero-speed row set to the {speed[1] / RPM:g} rpm row")
+    if torque[0] == 0 and not np.array_equal(eff[:, 0], eff[:, 1]):
+        eff[:, 0] = eff[:, 1]
+        changed.append(f"zero-torque column set to the {torque[1]:g} N*m column")
+    if notes is not None:
+        notes.extend(f"{name}: {n} (source fill replaced)" for n in changed)
     return MachineMap(
-        name=str(d.get("source", path.stem)).split()[-1],
+        name=name,
         speed_rad_s=_ro(speed), torque_nm=_ro(torque), efficiency=_ro(eff), max_torque_nm=_ro(tmax),
         peak_power_kw=_peak_power_kw(speed, tmax),
         mass_kg=float(_need(d, "mass_kg", path)), inertia_kg_m2=float(d.get("inertia_kg_m2", 0.0)),
@@ -315,13 +486,16 @@ def load_battery(path: Path, temperature_c: float) -> BatteryModule:
     d = _read_yaml(path)
     temps = np.array(_need(d, "temperature_axis_c", path), dtype=float)
     i = int(np.argmin(np.abs(temps - temperature_c)))
-    row = lambda key: _ro(np.array(_need(d, key, path), dtype=float)[i])  # noqa: E731
+
+    def row(key: str) -> np.ndarray:
+        return _ro(np.array(_need(d, key, path), dtype=float)[i])
+
     return BatteryModule(
         name=str(d.get("source", path.stem)).split()[-1],
         soc=_ro(_need(d, "soc_axis", path)), ocv_v=row("open_circuit_voltage_v"),
         r_dis_ohm=row("discharge_resistance_ohm"), r_chg_ohm=row("charge_resistance_ohm"),
-        capacity_ah=float(np.array(d["capacity_ah"])[i]),
-        coulombic_efficiency=float(np.array(d["coulombic_efficiency"])[i]),
+        capacity_ah=float(np.array(_need(d, "capacity_ah", path))[i]),
+        coulombic_efficiency=float(np.array(_need(d, "coulombic_efficiency", path))[i]),
         v_min=float(_need(d, "min_voltage_v", path)), v_max=float(_need(d, "max_voltage_v", path)),
         mass_kg=float(_need(d, "module_mass_kg", path)), temperature_c=float(temps[i]),
     )
@@ -331,12 +505,15 @@ def load_body(path: Path) -> Body:
     d = _read_yaml(path)
     return Body(
         name=str(d.get("source", path.stem)).split()[-1],
-        glider_mass_kg=float(_need(d, "glider_mass_kg", path)), cargo_mass_kg=float(_need(d, "cargo_mass_kg", path)),
+        glider_mass_kg=float(_need(d, "glider_mass_kg", path)),
+        cargo_mass_kg=float(_need(d, "cargo_mass_kg", path)),
         drag_coefficient=float(_need(d, "drag_coefficient", path)),
-        frontal_area_m2=float(_need(d, "frontal_area_m2", path)), cg_height_m=float(_need(d, "cg_height_m", path)),
+        frontal_area_m2=float(_need(d, "frontal_area_m2", path)),
+        cg_height_m=float(_need(d, "cg_height_m", path)),
         wheelbase_m=float(_need(d, "wheelbase_m", path)),
         front_weight_fraction=float(_need(d, "front_axle_weight_fraction", path)),
-        air_density_kg_m3=float(d.get("air_density_kg_per_m3", 1.2)), gravity_m_s2=float(d.get("gravity_m_per_s2", 9.81)),
+        air_density_kg_m3=float(d.get("air_density_kg_per_m3", 1.2)),
+        gravity_m_s2=float(d.get("gravity_m_per_s2", 9.81)),
     )
 
 
@@ -352,40 +529,126 @@ def load_wheel(path: Path) -> Wheel:
     )
 
 
+#: Table 1 of the study (``data/raw/paper/table1_baseline_vehicles.csv``): row name -> (our key, unit).
+TABLE1_ROWS = {
+    "vehicle_mass": ("test_mass_kg", "kg"), "engine_max_power": ("p_eng_kw", "kW"),
+    "motor_max_power": ("p_mot_kw", "kW"), "generator_max_power": ("p_gen_kw", "kW"),
+    "drag_coefficient": ("drag_coefficient", "-"), "frontal_area": ("frontal_area_m2", "m2"),
+    "cg_height": ("cg_height_m", "m"), "wheel_radius": ("wheel_radius_m", "m"),
+    "overall_gear_ratios": ("gear_ratios", "-"), "final_drive_ratio": ("final_drive_ratio", "-"),
+}
+
+
+def read_baseline_table(path: str | Path) -> dict[str, dict]:
+    """The study's Table 1 as ``{"conventional": {...}, "prius": {...}}`` in our key names (SI units).
+
+    Empty cells are left out; ``gear_ratios`` is a list (``;``-separated in the file).
+    """
+    path = Path(path)
+    df = read_table(path)
+    for col in ("parameter", "unit", "conventional", "prius"):
+        if col not in df.columns:
+            raise ValueError(f"{path}: missing column {col!r}")
+    out: dict[str, dict] = {"conventional": {}, "prius": {}}
+    for _, r in df.iterrows():
+        if r["parameter"] not in TABLE1_ROWS:
+            continue
+        key, unit = TABLE1_ROWS[r["parameter"]]
+        if str(r["unit"]) != unit:
+            raise ValueError(f"{path}: {r['parameter']}: unit {r['unit']!r}, expected {unit!r}")
+        for car in out:
+            cell = r[car]
+            if cell is None or (isinstance(cell, float) and np.isnan(cell)) or str(cell).strip() == "":
+                continue
+            try:
+                vals = [float(v) for v in str(cell).split(";")]
+            except ValueError:
+                raise ValueError(f"{path}: {r['parameter']} ({car}): {cell!r} is not a number") from None
+            out[car][key] = vals if key == "gear_ratios" else vals[0]
+    for car in out:
+        missing = [k for k in ("drag_coefficient", "frontal_area_m2", "cg_height_m", "wheel_radius_m")
+                   if k not in out[car]]
+        if missing:
+            raise ValueError(f"{path}: {car}: missing {', '.join(missing)}")
+    return out
+
+
+def read_paper_row(path: str | Path, column: str, value) -> dict:
+    """The row of a study table (CSV) whose ``column`` equals ``value``, as a dict (errors name the file)."""
+    path = Path(path)
+    df = read_table(path)
+    if column not in df.columns:
+        raise ValueError(f"{path}: missing column {column!r}")
+    rows = df[df[column] == value]
+    if rows.empty:
+        raise ValueError(f"{path}: no row with {column} = {value!r}")
+    cells = {k: df[k].at[rows.index[0]] for k in df.columns}          # per column: keeps int columns int
+    return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in cells.items()}
+
+
+def _accessory(d: dict) -> Accessory:
+    return Accessory(float(d["electrical_load_w"]), float(d["mechanical_load_w"]))
+
+
+_BODY_KEYS = {f.name for f in dataclasses.fields(Body)} - {"name"}
+
+
+def _with_overrides(body: Body, wheel: Wheel, overrides: dict | None) -> tuple[Body, Wheel]:
+    """Apply Table-1 style overrides (Body field names, plus ``wheel_radius_m``) to a body and its wheel."""
+    if not overrides:
+        return body, wheel
+    body = dataclasses.replace(body, **{k: float(v) for k, v in overrides.items() if k in _BODY_KEYS})
+    if "wheel_radius_m" in overrides:
+        wheel = dataclasses.replace(wheel, radius_m=float(overrides["wheel_radius_m"]))
+    return body, wheel
+
+
 def load_library(raw_dir: str | Path, *, battery: str = "li_ion", battery_temperature_c: float = 41.0,
                  conventional_body: dict | None = None, gear_ratios: list[float] | None = None,
-                 conventional_idle_rpm: float = 800.0) -> ComponentLibrary:
+                 conventional_idle_rpm: float = 800.0, prius_body: dict | None = None) -> ComponentLibrary:
     """Load every component of the study from ``raw_dir`` (ADVISOR YAML).
 
-    ``conventional_body`` overrides body/wheel numbers with the study's Table 1 (the conventional car
-    is the EV1 body with the small-car wheel in ADVISOR terms: Cd 0.19, 2.038 m2, CG 0.4 m, r 0.282 m).
+    ``conventional_body`` / ``prius_body`` override body and wheel numbers with the study's Table 1
+    (keys as :func:`read_baseline_table` returns them). The conventional car is the EV1 body with the
+    small-car wheel in ADVISOR terms (Cd 0.19, 2.038 m2, CG 0.4 m, r 0.282 m). Its glider mass is
+    ADVISOR's EV1 value here; :func:`hevlib.scaling.with_conventional_glider` replaces it by the one
+    the conventional car's test mass implies.
     """
     raw = Path(raw_dir)
+    if not raw.is_dir():
+        raise FileNotFoundError(f"{raw}: component directory missing")
+    notes: list[str] = []
     ptc = _read_yaml(raw / "PTC_PRIUS_JPN.yaml")
     tx = _read_yaml(raw / "TX_PRIUS_CVT_JPN.yaml")
     gb = _read_yaml(raw / "TX_5SPD_SI.yaml")
-    conv_ctl = _read_yaml(raw / "PTC_CONV.yaml")
     ex = _read_yaml(raw / "EX_SI.yaml")
     acc_h, acc_c = _read_yaml(raw / "ACC_PRIUS_JPN.yaml"), _read_yaml(raw / "ACC_CONV.yaml")
-    doc = tx["from_advisor_documentation"]
-    reg = gb["loss_regression"]
-    body_c, wheel_c = load_body(raw / "VEH_EV1.yaml"), load_wheel(raw / "WH_SMCAR.yaml")
-    if conventional_body:
-        body_c = dataclasses.replace(body_c, **{k: v for k, v in conventional_body.items()
-                                                if k in {f.name for f in dataclasses.fields(Body)}})
-        if "wheel_radius_m" in conventional_body:
-            wheel_c = dataclasses.replace(wheel_c, radius_m=float(conventional_body["wheel_radius_m"]))
-    battery_file = {"li_ion": "ESS_LI7_temp.yaml", "nimh": "ESS_NIMH6.yaml"}[battery]
+    doc = _need(tx, "from_advisor_documentation", raw / "TX_PRIUS_CVT_JPN.yaml")
+    reg = _need(gb, "loss_regression", raw / "TX_5SPD_SI.yaml")
+    body_c, wheel_c = _with_overrides(load_body(raw / "VEH_EV1.yaml"), load_wheel(raw / "WH_SMCAR.yaml"),
+                                      conventional_body)
+    body_p, wheel_p = _with_overrides(load_body(raw / "VEH_PRIUS_JPN.yaml"),
+                                      load_wheel(raw / "WH_PRIUS_JPN.yaml"), prius_body)
+    battery_files = {"li_ion": "ESS_LI7_temp.yaml", "nimh": "ESS_NIMH6.yaml"}
+    if battery not in battery_files:
+        raise ValueError(f"battery: {battery!r} is not one of {', '.join(battery_files)}")
+    battery_file = battery_files[battery]
     ratios = np.array(gear_ratios if gear_ratios is not None else gb["overall_gear_ratios"], dtype=float)
-    conv_eval = conv_ctl["evaluated_for_FC_SI63_emis_with_700_w_accessory"]
+    engine_hybrid = load_engine(raw / "FC_PRIUS_JPN.yaml", notes)
+    engine_conventional = load_engine(raw / "FC_SI63_emis.yaml", notes)
+    motor = load_machine(raw / "MC_PRIUS_JPN.yaml", generator=False, notes=notes)
+    generator = load_machine(raw / "GC_PRIUS_JPN.yaml", generator=True, notes=notes)
+    # PTC_CONV rules: idle = the configured idle speed (ADVISOR: at least 800 rpm and enough for twice the
+    # accessory load, which any engine of this size meets at 800 rpm); launch = max(w_max / 5, 1.5 idle)
+    idle = float(conventional_idle_rpm) * RPM
     return ComponentLibrary(
-        engine_hybrid=load_engine(raw / "FC_PRIUS_JPN.yaml"),
-        engine_conventional=load_engine(raw / "FC_SI63_emis.yaml"),
-        motor=load_machine(raw / "MC_PRIUS_JPN.yaml", generator=False),
-        generator=load_machine(raw / "GC_PRIUS_JPN.yaml", generator=True),
+        engine_hybrid=engine_hybrid,
+        engine_conventional=engine_conventional,
+        motor=motor,
+        generator=generator,
         battery=load_battery(raw / battery_file, battery_temperature_c),
         body_conventional=body_c, wheel_conventional=wheel_c,
-        body_prius=load_body(raw / "VEH_PRIUS_JPN.yaml"), wheel_prius=load_wheel(raw / "WH_PRIUS_JPN.yaml"),
+        body_prius=body_p, wheel_prius=wheel_p,
         power_split=PowerSplit(
             n_r=int(tx["ring_gear_teeth"]), n_s=int(tx["sun_gear_teeth"]), i0=float(tx["final_drive_ratio"]),
             n_planets=int(doc["planet_gear_count"]), planet_teeth=int(doc["planet_gear_teeth"]),
@@ -401,10 +664,10 @@ def load_library(raw_dir: str | Path, *, battery: str = "li_ion", battery_temper
             loss_coefficients=_ro([reg["a_input_speed"], reg["b_output_speed"], reg["c_input_torque"],
                                    reg["d_output_torque"], reg["e_output_power"], reg["f_constant_w"]]),
         ),
-        accessory_hybrid=Accessory(float(acc_h["electrical_load_w"]), float(acc_h["mechanical_load_w"])),
-        accessory_conventional=Accessory(float(acc_c["electrical_load_w"]), float(acc_c["mechanical_load_w"])),
+        accessory_hybrid=_accessory(acc_h),
+        accessory_conventional=_accessory(acc_c),
         exhaust_kg_per_kw=float(ex["mass_rule"]["exhaust_system_kg_per_engine_kw"]),
-        conventional_idle_rad_s=max(float(conventional_idle_rpm) * RPM, float(conv_eval["idle_speed_rad_s"])),
-        conventional_launch_rad_s=float(conv_eval["launch_speed_rad_s"]),
-        meta={"raw_dir": str(raw), "battery_file": battery_file},
+        conventional_idle_rad_s=idle,
+        conventional_launch_rad_s=max(engine_conventional.max_speed_rad_s / 5.0, 1.5 * idle),
+        meta={"raw_dir": str(raw), "battery_file": battery_file, "normalisation": notes},
     )

@@ -22,7 +22,19 @@ engine power used to charge; rule 5 (boost) asks for full engine power with no c
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import numpy as np
 from numba import njit
+
+from hevlib.powertrain.engine import EngineArrays, line_power_for_torque, max_torque
+from hevlib.powertrain.hybrid import (
+    SplitDesign,
+    engine_power_max,
+    engine_window,
+    generator_overspeed_if_stopped,
+)
+from hevlib.powertrain.machines import MachineArrays, electric_power, torque_limit
 
 
 @njit(cache=True, inline="always")
@@ -74,3 +86,73 @@ def decide(soc: float, grade: float, speed_kmh: float, torque_frac: float, th, o
     else:
         want = on / (on + off) > on_threshold
     return want, max(r1, r6), r5
+
+
+class PmsConfig(NamedTuple):
+    """Crisp settings of the supervisory controller (fuzzy thresholds travel as an array)."""
+
+    on_threshold: float
+    min_on_s: float
+    min_off_s: float
+    p_min_w: float         # engine power floor while running
+    charge_frac: float     # charging power as a share of rated engine power at full charge degree
+    soc_target: float
+    soc_min: float
+    soc_high: float        # no charging from the engine above this SOC
+
+
+def thresholds(pms) -> np.ndarray:
+    """The 14-value threshold array ``rule_strengths`` reads, from the ``pms`` params group."""
+    keys = ("soc_low", "soc_high", "grade_low", "grade_high", "speed_high_kmh", "torque_low", "torque_high")
+    return np.array([x for key in keys for x in (getattr(pms, key).value, getattr(pms, key).width)], dtype=float)
+
+
+@njit(cache=True)
+def supervise(engine_on: bool, t_in_state_s: float, soc: float, grade: float, v_kmh: float, w_r: float,
+              t_r_req: float, p_dis: float, th: np.ndarray, pc: PmsConfig, d: SplitDesign,
+              E: EngineArrays, M: MachineArrays, G: MachineArrays) -> tuple[bool, float]:
+    """Engine ON/OFF and target engine power (W) for the next step.
+
+    Order of authority: physics first (the engine must turn when the generator would otherwise
+    overspeed, cannot run when its speed window is empty), then the motor's ability to drive alone,
+    then the fuzzy rule base, then the minimum on/off times. The engine is fuel-cut while braking.
+    Target power: ring demand plus accessories plus a charging share (fuzzy charge degree or SOC
+    below target), floored at ``p_min_w``, capped by what the engine can give; boost = full power.
+    """
+    lo, hi = engine_window(w_r, d)
+    can_run = lo <= hi
+    must_run = generator_overspeed_if_stopped(w_r, d)
+    k = d.n_r / d.n_s
+    t_m_cap = torque_limit(w_r, d.s_mot, M)
+    t_r_eng_cap = d.eta_pg * k / (1.0 + k) * max_torque(hi, d.s_eng, E) if can_run else 0.0
+    torque_frac = t_r_req / max(t_m_cap + t_r_eng_cap, 1e-9)
+    want, charge_deg, boost_deg = decide(soc, grade, v_kmh, torque_frac, th, pc.on_threshold, engine_on)
+    ev_ok = True
+    if t_r_req > 0.0:
+        ev_ok = t_r_req <= t_m_cap and electric_power(t_r_req, w_r, d.s_mot, M) + d.p_acc_w <= p_dis
+    if not ev_ok:
+        want = True
+    if t_r_req < 0.0:
+        want = False
+    if engine_on and not want and t_in_state_s < pc.min_on_s and t_r_req >= 0.0:
+        want = True
+    if not engine_on and want and t_in_state_s < pc.min_off_s and ev_ok:
+        want = False
+    if must_run:
+        want = True
+    if not can_run:
+        want = False
+    if not want:
+        return False, 0.0
+    p_max = engine_power_max(w_r, d, E, G)
+    if boost_deg > 0.5:
+        return True, p_max
+    p_rated = d.s_eng * E.line_p[-1]
+    soc_deficit = min(max((pc.soc_target - soc) / max(pc.soc_target - pc.soc_min, 1e-9), 0.0), 1.0)
+    p_charge = pc.charge_frac * p_rated * max(charge_deg, soc_deficit) if soc < pc.soc_high else 0.0
+    p = max(t_r_req, 0.0) * w_r / d.eta_pg + d.p_acc_w + p_charge
+    if t_r_req > t_m_cap:
+        # the motor alone lacks torque: the engine's ring share must cover the rest
+        t_e_need = (t_r_req - t_m_cap) * (1.0 + k) / (k * d.eta_pg)
+        p = max(p, line_power_for_torque(t_e_need, d.s_eng, E))
+    return True, min(max(p, pc.p_min_w), p_max)

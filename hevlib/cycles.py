@@ -1,21 +1,29 @@
 """Drive cycles: load a raw speed trace, check it, resample it to a fixed step and attach a road grade.
 
-A :class:`Cycle` is immutable data in SI units (``time_s``, ``speed_mps``, ``grade`` as rise/run).
-Raw files are ADVISOR CSV exports with the header ``time_s,speed_kmh``; processed cycles are Parquet
-files with the explicit schema :data:`CYCLE_SCHEMA` (``data/cycles/<name>.parquet``).
+A :class:`Cycle` is immutable data in SI units (``time_s``, ``speed_mps``, ``grade`` as rise/run, and
+``key_on``: False where the cycle prescribes key-off, e.g. the FTP's 10-minute soak). Raw files are
+ADVISOR CSV exports with the header ``time_s,speed_kmh`` (``cycles.yaml`` beside them lists key-off
+intervals); processed cycles are Parquet files with the explicit schema :data:`CYCLE_SCHEMA`
+(``data/cycles/<name>.parquet``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
+import yaml
 
-from hevlib.io import write_parquet
+from hevlib.io import write_json, write_parquet
+
+if TYPE_CHECKING:
+    from hevlib.params import CyclesParams
 
 KMH = 1.0 / 3.6  # m/s per km/h
 
@@ -26,7 +34,10 @@ CYCLE_SCHEMA = pa.schema([
     pa.field("time_s", pa.float64(), nullable=False),
     pa.field("speed_mps", pa.float64(), nullable=False),
     pa.field("grade", pa.float64(), nullable=False),   # rise / run (0.2 = 20 %)
+    pa.field("key_on", pa.bool_(), nullable=False),    # False during prescribed key-off (no idle fuel)
 ])
+#: Columns every cycle file must have (``key_on`` defaults to all True when absent).
+REQUIRED_COLUMNS = ("time_s", "speed_mps", "grade")
 
 
 class CycleError(ValueError):
@@ -41,15 +52,19 @@ class Cycle:
     time_s: np.ndarray
     speed_mps: np.ndarray
     grade: np.ndarray
+    key_on: np.ndarray | None = None    # bool per step; None = key on throughout
 
     def __post_init__(self):
         for key in ("time_s", "speed_mps", "grade"):
             arr = np.array(getattr(self, key), dtype=float)
             arr.setflags(write=False)
             object.__setattr__(self, key, arr)
-        _check_trace(self.name, self.time_s, self.speed_mps)
-        if len(self.grade) != len(self.time_s):
-            raise CycleError(f"cycle {self.name!r}: time_s, speed_mps and grade lengths differ")
+        key_on = np.ones(len(self.time_s), bool) if self.key_on is None else np.array(self.key_on, dtype=bool)
+        key_on.setflags(write=False)
+        object.__setattr__(self, "key_on", key_on)
+        _check_trace(f"cycle {self.name!r}", self.time_s, self.speed_mps)
+        if not len(self.grade) == len(self.key_on) == len(self.time_s):
+            raise CycleError(f"cycle {self.name!r}: time_s, speed_mps, grade and key_on lengths differ")
         if not np.all(np.isfinite(self.grade)) or np.any(np.abs(self.grade) > 1.0):
             raise CycleError(f"cycle {self.name!r}: grade must be finite rise/run within [-1, 1]")
         dt = np.diff(self.time_s)
@@ -75,24 +90,23 @@ class Cycle:
         return float(np.trapezoid(self.speed_mps, self.time_s))
 
     def summary(self) -> dict:
-        """The figures ``reports/cycles.json`` holds for this cycle."""
-        moving = self.duration_s
+        """The figures ``reports/cycles.json`` holds for this cycle (mean speed includes stops)."""
         return {
-            "duration_s": self.duration_s,
-            "distance_km": self.distance_m / 1e3,
-            "v_mean_kmh": (self.distance_m / moving) * 3.6 if moving > 0 else 0.0,
-            "v_max_kmh": float(np.max(self.speed_mps)) * 3.6,
-            "grade": float(np.mean(self.grade)),
+            "duration_s": round(self.duration_s, 6),
+            "distance_km": round(self.distance_m / 1e3, 6),
+            "v_mean_kmh": round(self.distance_m / self.duration_s * 3.6, 6),
+            "v_max_kmh": round(float(np.max(self.speed_mps)) * 3.6, 6),
+            "grade": round(float(np.mean(self.grade)), 6),
         }
 
     def with_grade(self, grade: float) -> Cycle:
         """The same trace on a constant road grade (rise/run)."""
-        return Cycle(self.name, self.time_s, self.speed_mps, np.full(self.n_steps, float(grade)))
+        return Cycle(self.name, self.time_s, self.speed_mps, np.full(self.n_steps, float(grade)), self.key_on)
 
     # ------------------------------------------------------------------ persistence
     def to_parquet(self, path: str | Path) -> None:
-        table = pa.table({"time_s": self.time_s, "speed_mps": self.speed_mps, "grade": self.grade},
-                         schema=CYCLE_SCHEMA)
+        table = pa.table({"time_s": self.time_s, "speed_mps": self.speed_mps, "grade": self.grade,
+                          "key_on": self.key_on}, schema=CYCLE_SCHEMA)
         write_parquet(path, table, metadata={"cycle": self.name})
 
     @classmethod
@@ -100,29 +114,43 @@ class Cycle:
         path = Path(path)
         if not path.exists():
             raise FileNotFoundError(f"{path}: no such cycle file; run `hev cycles` (dvc repro cycles) first")
-        table = pq.read_table(path)
-        missing = [c for c in CYCLE_SCHEMA.names if c not in table.column_names]
+        try:
+            table = pq.read_table(path)
+        except (pa.ArrowInvalid, OSError) as err:
+            raise CycleError(f"{path}: not a readable Parquet file ({str(err).splitlines()[0]})") from None
+        missing = [c for c in REQUIRED_COLUMNS if c not in table.column_names]
         if missing:
             raise CycleError(f"{path}: missing column(s) {', '.join(missing)}")
-        return cls(name or path.stem, *(table.column(c).to_numpy() for c in CYCLE_SCHEMA.names))
+        key_on = table.column("key_on").to_numpy() if "key_on" in table.column_names else None
+        try:
+            return cls(name or path.stem, *(table.column(c).to_numpy() for c in REQUIRED_COLUMNS), key_on)
+        except CycleError as err:
+            raise CycleError(f"{path}: {err}") from None
 
 
-def _check_trace(where: str, time_s: np.ndarray, speed_mps: np.ndarray) -> None:
+def _check_trace(where: str, time_s: np.ndarray, speed_mps: np.ndarray, *,
+                 first_line: int | None = None) -> None:
+    """Equal lengths, >= 2 points, finite values, strictly increasing time, non-negative speed.
+
+    Positions are reported as file lines (``first_line`` = line of the first value) or array indices.
+    """
+    def at(i: int) -> str:
+        return f"line {i + first_line}" if first_line is not None else f"index {i}"
+
     if len(time_s) != len(speed_mps):
         raise CycleError(f"{where}: time and speed lengths differ")
     if len(time_s) < 2:
         raise CycleError(f"{where}: needs at least two points")
-    if not np.all(np.isfinite(time_s)):
-        raise CycleError(f"{where}: time_s has NaN or infinite values")
-    if not np.all(np.isfinite(speed_mps)):
-        i = int(np.argmin(np.isfinite(speed_mps)))
-        raise CycleError(f"{where}: speed is NaN or infinite at row {i}")
+    for label, arr in (("time_s", time_s), ("speed", speed_mps)):
+        if not np.all(np.isfinite(arr)):
+            i = int(np.argmin(np.isfinite(arr)))
+            raise CycleError(f"{where}: {label} is missing, NaN or infinite at {at(i)}")
     if np.any(np.diff(time_s) <= 0):
         i = int(np.argmax(np.diff(time_s) <= 0)) + 1
-        raise CycleError(f"{where}: time is not strictly increasing at row {i} (t={time_s[i]:g} s)")
+        raise CycleError(f"{where}: time is not strictly increasing at {at(i)} (t={time_s[i]:g} s)")
     if np.any(speed_mps < 0):
         i = int(np.argmax(speed_mps < 0))
-        raise CycleError(f"{where}: negative speed at row {i} (t={time_s[i]:g} s)")
+        raise CycleError(f"{where}: negative speed at {at(i)} (t={time_s[i]:g} s)")
 
 
 def read_raw_cycle(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
@@ -144,21 +172,82 @@ def read_raw_cycle(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     col = speed_cols[0]
     time_s = pd.to_numeric(df["time_s"], errors="coerce").to_numpy(dtype=float)
     speed = pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float) * RAW_SPEED_UNITS[col]
-    _check_trace(str(path), time_s, speed)
+    _check_trace(str(path), time_s, speed, first_line=2)
     return time_s, speed
 
 
 def resample(time_s: np.ndarray, speed_mps: np.ndarray, step_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Linear resample onto ``t0, t0 + step, ...`` up to the last raw time (inclusive where it falls)."""
-    if step_s <= 0:
-        raise CycleError("step_s must be positive")
+    if not np.isfinite(step_s) or step_s <= 0:
+        raise CycleError(f"step_s: {step_s:g} must be positive")
     n = int(np.floor((time_s[-1] - time_s[0]) / step_s + 1e-9)) + 1
+    if n < 2:
+        span = time_s[-1] - time_s[0]
+        raise CycleError(f"step_s: {step_s:g} s leaves fewer than two points of a {span:g} s trace")
     grid = time_s[0] + step_s * np.arange(n)
     return grid, np.interp(grid, time_s, speed_mps)
 
 
-def load_cycle(path: str | Path, *, name: str, step_s: float = 1.0, grade: float = 0.0) -> Cycle:
-    """Raw CSV -> checked, resampled :class:`Cycle` on a constant grade (rise/run)."""
+def key_on_mask(time_s: np.ndarray, key_off_intervals_s) -> np.ndarray:
+    """True except at times inside any ``[start, end]`` key-off interval (inclusive, s)."""
+    on = np.ones(len(time_s), bool)
+    for start, end in key_off_intervals_s:
+        on &= ~((time_s >= start - 1e-9) & (time_s <= end + 1e-9))
+    return on
+
+
+def load_cycle(path: str | Path, *, name: str, step_s: float = 1.0, grade: float = 0.0,
+               key_off_intervals_s=()) -> Cycle:
+    """Raw CSV -> checked, resampled :class:`Cycle` on a constant grade (rise/run).
+
+    ``key_off_intervals_s`` are in the raw file's time; the cycle's time starts at 0.
+    """
     time_s, speed = read_raw_cycle(path)
-    grid, v = resample(time_s, speed, step_s)
-    return Cycle(name, grid - grid[0], v, np.full(len(grid), float(grade)))
+    try:
+        grid, v = resample(time_s, speed, step_s)
+    except CycleError as err:
+        raise CycleError(f"{path}: {err}") from None
+    return Cycle(name, grid - grid[0], v, np.full(len(grid), float(grade)),
+                 key_on_mask(grid, key_off_intervals_s))
+
+
+def read_key_off_intervals(raw_dir: str | Path) -> dict[str, list[tuple[float, float]]]:
+    """``{csv file name: [(start_s, end_s), ...]}`` from ``cycles.yaml`` in ``raw_dir`` (empty if absent)."""
+    path = Path(raw_dir) / "cycles.yaml"
+    if not path.exists():
+        return {}
+    try:
+        meta = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        raise CycleError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
+    out = {}
+    for key, entry in ((meta or {}).get("cycles") or {}).items():
+        try:
+            intervals = entry.get("key_off_intervals_s") or []
+            out[str(entry["file"])] = [(float(a), float(b)) for a, b in intervals]
+        except (KeyError, TypeError, ValueError, AttributeError):
+            msg = f"{path}: cycles.{key}: needs 'file' and [start, end] key_off_intervals_s"
+            raise CycleError(msg) from None
+    return out
+
+
+def build_cycles(cfg: CyclesParams) -> dict[str, Cycle]:
+    """Every cycle of ``params.cycles``: loaded, checked, resampled, on its grade (``grade_pct / 100``)."""
+    raw = Path(cfg.raw_dir)
+    if not raw.is_dir():
+        raise FileNotFoundError(f"{raw}: cycle directory missing (params cycles.raw_dir)")
+    key_off = read_key_off_intervals(raw)
+    return {name: load_cycle(raw / spec.file, name=name, step_s=cfg.step_s, grade=spec.grade_pct / 100.0,
+                             key_off_intervals_s=key_off.get(spec.file, ()))
+            for name, spec in cfg.cycles.items()}
+
+
+def write_cycles(cycles: Mapping[str, Cycle], out_dir: str | Path, report_path: str | Path) -> None:
+    """``<out_dir>/<name>.parquet`` per cycle (stale ``*.parquet`` removed) and the summary JSON."""
+    out_dir = Path(out_dir)
+    for name, cyc in cycles.items():
+        cyc.to_parquet(out_dir / f"{name}.parquet")
+    keep = {out_dir / f"{name}.parquet" for name in cycles}
+    for stale in set(out_dir.glob("*.parquet")) - keep:
+        stale.unlink()
+    write_json(report_path, {name: cyc.summary() for name, cyc in cycles.items()})

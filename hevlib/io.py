@@ -14,6 +14,9 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+
 
 @contextmanager
 def atomic_path(path: str | os.PathLike):
@@ -24,6 +27,7 @@ def atomic_path(path: str | os.PathLike):
     os.close(fd)
     try:
         yield Path(tmp)
+        os.chmod(tmp, 0o666 & ~_UMASK)   # mkstemp creates 0600; outputs get the usual permissions
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -73,6 +77,19 @@ def save_with(path: str | os.PathLike, writer: Callable[[Path], None]) -> None:
     """Atomically write ``path`` with a callable that writes to the temp path it gets (plots, torch)."""
     with atomic_path(path) as tmp:
         writer(tmp)
+
+
+def write_table(path: str | os.PathLike, table: pd.DataFrame) -> None:
+    """Write a CSV or Parquet table (by extension), atomically."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        with atomic_path(path) as tmp:
+            table.to_csv(tmp, index=False)
+    elif suffix in (".parquet", ".pq"):
+        write_parquet(path, table)
+    else:
+        raise ValueError(f"{path}: unsupported table format (use .csv or .parquet)")
 
 
 def read_table(path: str | os.PathLike) -> pd.DataFrame:

@@ -32,16 +32,20 @@ Seed = Annotated[int, Field(ge=0, le=2**32 - 1)]
 
 # --------------------------------------------------------------------------------------------- cycles
 class CycleSpec(_Strict):
-    file: str = Field(pattern=r"^[A-Za-z0-9_.-]+\.csv$")
+    file: str = Field(pattern=r"^[A-Za-z0-9_.-]+\.csv$", description="raw CSV in cycles.raw_dir")
     grade_pct: float = Field(ge=-30, le=30, description="road grade in percent (rise/run x 100)")
+
+
+#: A cycle key names its output file (data/cycles/<name>.parquet).
+CycleName = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$")]
 
 
 class CyclesParams(_Strict):
     raw_dir: str = "data/raw/cycles"
-    step_s: Pos = 1.0
+    step_s: Annotated[float, Field(gt=0, le=10)] = 1.0
     sizing: str = "udds"
     validation: str = "ftp"
-    cycles: dict[str, CycleSpec]
+    cycles: dict[CycleName, CycleSpec] = Field(min_length=1)
 
     @model_validator(mode="after")
     def _known_roles(self):
@@ -80,6 +84,12 @@ class PriusParams(_Strict):
     n_s: Annotated[int, Field(ge=10, le=200)] = 30
     test_mass_kg: Annotated[float, Field(gt=500, le=4000)] = 1404.0
 
+    @model_validator(mode="after")
+    def _gear_set(self):
+        if self.n_s >= self.n_r:
+            raise ValueError(f"n_s: {self.n_s} sun teeth must be fewer than n_r = {self.n_r} ring teeth")
+        return self
+
 
 class BaselineParams(_Strict):
     components_dir: str = "data/raw/components"
@@ -96,13 +106,14 @@ class SimParams(_Strict):
     soc_max: Frac = 0.8
     mass_factor: Annotated[float, Field(ge=1.0, le=1.5)] = 1.05
     adhesion_coefficient: Annotated[float, Field(gt=0, le=1.5)] = 0.9
-    driver_lookahead: Literal["next_step"] = "next_step"
     regen_fraction_max: Frac = 0.8
+    regen_fade_kmh: Annotated[float, Field(gt=0, le=50)] = 10.0
     planetary_efficiency: Annotated[float, Field(gt=0.8, le=1.0)] = 0.98
     final_drive_efficiency: Annotated[float, Field(gt=0.8, le=1.0)] = 0.97
     pack_current_max_a: Pos = 200.0
     perf_dt_s: Annotated[float, Field(gt=0, le=1)] = 0.1
     perf_max_time_s: Annotated[float, Field(gt=10, le=300)] = 60.0
+    cycle_met_tolerance_kmh: Annotated[float, Field(gt=0, le=50)] = 3.2
 
     @model_validator(mode="after")
     def _window(self):
@@ -112,7 +123,7 @@ class SimParams(_Strict):
 
 
 class Trapezoid(_Strict):
-    """Fuzzy threshold: membership of 'above' rises linearly from ``value - width/2`` to ``value + width/2``."""
+    """Fuzzy threshold: the membership of 'above' rises linearly over ``value -/+ width/2``."""
 
     value: float
     width: NonNeg = 0.0
@@ -170,70 +181,101 @@ class DesignSpaceParams(_Strict):
 
 # --------------------------------------------------------------------------------------------- doe
 class DoeParams(_Strict):
+    """Designs simulated for the surrogates (SPEC 6): the study's L27 array, a seeded LHS, or both."""
+
     method: Literal["l27", "lhs", "both"] = "l27"
-    n_lhs: Annotated[int, Field(ge=1, le=1_000_000)] = 300
-    seed: Seed = 42
-    batch_size: Annotated[int, Field(ge=1, le=100_000)] = 1000
+    n_lhs: Annotated[int, Field(ge=1, le=1_000_000)] = 300     # Latin-hypercube designs (lhs, both)
+    seed: Seed = 42                                            # seed of the Latin hypercube
+    batch_size: Annotated[int, Field(ge=1, le=100_000)] = 1000  # designs per simulator batch
+    l27_file: str = "data/raw/paper/l27_assignment.csv"
 
 
 # -------------------------------------------------------------------------------------- surrogates
 class BnnParams(_Strict):
-    hidden: list[Annotated[int, Field(ge=1, le=512)]] = [20]
-    lr: Pos = 0.01
+    """Bayesian-regularised MLP (SPEC 7; study: lr 0.01, error goal 1e-10, up to 3500 epochs)."""
+
+    hidden: Annotated[list[Annotated[int, Field(ge=1, le=512)]], Field(min_length=1, max_length=8)] = [20]
+    lr: Pos = 0.01                                            # Adam learning rate
     max_epochs: Annotated[int, Field(ge=1, le=100_000)] = 3500
-    error_goal: NonNeg = 1e-10
-    train_fraction: Annotated[float, Field(gt=0, lt=1)] = 0.7
-    evidence_every: Annotated[int, Field(ge=1)] = 10
-    seed: Seed = 0
+    error_goal: NonNeg = 1e-10                                # stop when the standardised train MSE is below
+    evidence_every: Annotated[int, Field(ge=1, le=100_000)] = 10  # epochs between alpha/beta re-estimations
+    seed: Seed = 0                                            # weight initialisation
 
 
 class HeldoutParams(_Strict):
+    """Fresh seeded LHS designs simulated only to judge the surrogates (never trained on)."""
+
     n: Annotated[int, Field(ge=2, le=100_000)] = 200
     seed: Seed = 1234
 
 
 class SurrogateParams(_Strict):
+    train_fraction: Annotated[float, Field(gt=0, lt=1)] = 0.7  # DOE share both surrogates are fitted on
+    split_seed: Seed = 0                                        # seed of the train/test split
     bnn: BnnParams = BnnParams()
     heldout: HeldoutParams = HeldoutParams()
 
 
 # ---------------------------------------------------------------------------------------- optimise
 class AlgoParams(_Strict):
+    """One optimiser's settings (``optimise.algorithms.<algo>``; see hevlib.optimise for their use)."""
+
     pop_size: Annotated[int, Field(ge=4, le=100_000)] = 200
     n_gen: Annotated[int, Field(ge=1, le=100_000)] = 500
-    crossover_prob: Frac = 0.6
-    mutation_prob: Frac = 0.05
+    crossover_prob: Frac = 0.6              # SBX probability per mating
+    mutation_prob: Frac = 0.05              # polynomial-mutation probability per variable
     seed: Seed = 1
     surrogate: Literal["bnn", "regression"] = "bnn"
     # algorithm-specific knobs; unused ones must keep their defaults
-    ref_dirs_partitions: list[Annotated[int, Field(ge=0, le=20)]] = [2, 1]
-    n_neighbors: Annotated[int, Field(ge=2, le=1000)] = 20
-    decomposition: Literal["tchebicheff", "pbi"] = "pbi"
-    penalty: NonNeg = 1000.0
-    n_weights: Annotated[int, Field(ge=1, le=10_000)] = 50
+    ref_dirs_partitions: Annotated[list[Annotated[int, Field(ge=1, le=20)]],
+                                   Field(min_length=1, max_length=3)] = [2, 1]   # nsga3: Das-Dennis layers
+    n_neighbors: Annotated[int, Field(ge=2, le=1000)] = 20      # moead
+    decomposition: Literal["tchebicheff", "pbi"] = "pbi"        # moead
+    penalty: NonNeg = 1000.0                                    # moead: per unit relative mass excess
+    n_weights: Annotated[int, Field(ge=1, le=10_000)] = 50      # moga: weight vectors (one GA each)
+    norm_samples: Annotated[int, Field(ge=2, le=1_000_000)] = 2000  # moead, moga: designs for ideal/nadir
 
 
 class OptimiseParams(_Strict):
     hv_samples: Annotated[int, Field(ge=100, le=10_000_000)] = 200_000
     hv_seed: Seed = 7
+    hv_reference: Annotated[float, Field(gt=0, le=10)] = 1.1   # reference point, DOE-normalised units
     algorithms: dict[Literal["nsga3", "moead", "moga"], AlgoParams]
 
 
 # ------------------------------------------------------------------------------------------ screen
 class ScreenParams(_Strict):
-    gen_below_motor: bool = True
-    speed_dev_max_kmh: Pos = 10.0
-    mass_max_kg: Pos = 1195.0
-    buildable_gear_set: bool = True
-    n_keep: Annotated[int, Field(ge=1)] = 78
-    n_pick: Annotated[int, Field(ge=1)] = 15
+    """Screening of the merged non-dominated designs, ranking, and the pick for validation (SPEC 9)."""
+
+    gen_below_motor: bool = True            # rule p_gen_kw < p_mot_kw (reported even when off)
+    speed_dev_max_kmh: Pos = 10.0           # rule sim_speed_dev <= this
+    mass_max_kg: Pos = 1195.0               # rule sim_m_veh <= this
+    buildable_gear_set: bool = True         # rule hevlib.design.gear_set_buildable (reported even when off)
+    n_keep: Annotated[int, Field(ge=1, le=1_000_000)] = 78
+    n_pick: Annotated[int, Field(ge=1, le=1_000_000)] = 15
     pick: Literal["random", "diverse"] = "random"
     seed: Seed = 2024
+
+    @model_validator(mode="after")
+    def _pick_within_keep(self):
+        if self.n_pick > self.n_keep:
+            raise ValueError(f"n_pick: {self.n_pick} must not exceed n_keep ({self.n_keep})")
+        return self
 
 
 # ---------------------------------------------------------------------------------------- validate
 class ValidateParams(_Strict):
-    cycles: list[str] = ["ftp", "hwfet"]
+    """Cycles the picked designs and both baselines are simulated on; the first is the headline cycle."""
+
+    cycles: list[Annotated[str, Field(pattern=r"^[A-Za-z0-9_]+$")]] = ["ftp", "hwfet"]
+
+    @model_validator(mode="after")
+    def _cycles(self):
+        if not self.cycles:
+            raise ValueError("cycles: needs at least one cycle")
+        if len(set(self.cycles)) != len(self.cycles):
+            raise ValueError("cycles: a cycle is listed twice")
+        return self
 
 
 class Params(_Strict):
@@ -251,10 +293,14 @@ class Params(_Strict):
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
 
 
-def _format_error(err: ValidationError) -> str:
+def _format_error(err: ValidationError, source: str = "params.yaml") -> str:
     first = err.errors()[0]
-    loc = ".".join(str(p) for p in first["loc"] if p not in ("function-after",))
+    parts = [str(p) for p in first["loc"] if p not in ("function-after",)]
     msg = first["msg"]
+    if parts and parts[-1] == "[key]":   # a mapping key failed its pattern (e.g. a cycle name)
+        parts.pop()
+        msg = f"invalid key name ({msg[0].lower()}{msg[1:]})"
+    loc = ".".join(parts)
     if first["type"] == "extra_forbidden":
         msg = "unknown key"
     elif msg.startswith("Value error, "):
@@ -264,14 +310,15 @@ def _format_error(err: ValidationError) -> str:
             loc, msg = (f"{loc}.{head}" if loc else head), rest
     n = len(err.errors())
     more = f" (and {n - 1} more error{'s' if n > 2 else ''})" if n > 1 else ""
-    return f"params.yaml: {loc}: {msg}{more}" if loc else f"params.yaml: {msg}{more}"
+    return f"{source}: {loc}: {msg}{more}" if loc else f"{source}: {msg}{more}"
 
 
-def parse_params(data: dict) -> Params:
+def parse_params(data: dict, source: str = "params.yaml") -> Params:
+    """Validate a params mapping; ``source`` names the file in error messages."""
     try:
         return Params.model_validate(data)
     except ValidationError as err:
-        raise ParamsError(_format_error(err)) from None
+        raise ParamsError(_format_error(err, source)) from None
 
 
 def load_params(path: str | Path = "params.yaml") -> Params:
@@ -285,7 +332,7 @@ def load_params(path: str | Path = "params.yaml") -> Params:
         raise ParamsError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
     if not isinstance(data, dict):
         raise ParamsError(f"{path}: top level must be a mapping of stage groups")
-    return parse_params(data)
+    return parse_params(data, str(path))
 
 
 __all__ = ["Params", "ParamsError", "load_params", "parse_params", "OBJECTIVES"]

@@ -21,7 +21,7 @@ def stage(fn: Callable) -> Callable:
     def wrapper(*args, **kwargs):
         try:
             return fn(*args, **kwargs)
-        except (ParamsError, ValueError, FileNotFoundError, KeyError) as err:
+        except (ParamsError, ValueError, OSError, KeyError) as err:
             msg = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
             typer.echo(f"error: {msg}", err=True)
             raise typer.Exit(code=1) from None

@@ -1,4 +1,8 @@
-"""Clamped 1-D and bilinear table lookups (numba), the building block of every map."""
+"""Clamped 1-D and bilinear table lookups (numba), the building block of every map.
+
+Tables are small (7-23 points per axis), so a linear scan for the bracketing interval beats a
+binary search. Values outside an axis are clamped to its ends (ADVISOR's convention).
+"""
 
 from __future__ import annotations
 
@@ -7,35 +11,50 @@ from numba import njit
 
 
 @njit(cache=True, inline="always")
-def interp1(x: float, xs: np.ndarray, ys: np.ndarray) -> float:
-    """Linear interpolation of ys(xs) at x, clamped to the end values."""
+def bracket(x: float, xs: np.ndarray) -> tuple[int, float]:
+    """(i, f): x lies between xs[i] and xs[i + 1] at fraction f in [0, 1] (clamped at the ends)."""
     n = xs.shape[0]
     if x <= xs[0]:
-        return ys[0]
+        return 0, 0.0
     if x >= xs[n - 1]:
-        return ys[n - 1]
-    i = np.searchsorted(xs, x) - 1
-    f = (x - xs[i]) / (xs[i + 1] - xs[i])
+        return n - 2, 1.0
+    i = 0
+    while xs[i + 1] < x:
+        i += 1
+    return i, (x - xs[i]) / (xs[i + 1] - xs[i])
+
+
+@njit(cache=True, inline="always")
+def interp1(x: float, xs: np.ndarray, ys: np.ndarray) -> float:
+    """Linear interpolation of ys(xs) at x, clamped to the end values."""
+    i, f = bracket(x, xs)
     return ys[i] + f * (ys[i + 1] - ys[i])
+
+
+@njit(cache=True, inline="always")
+def blend(z: np.ndarray, i: int, j: int, fx: float, fy: float) -> float:
+    """Bilinear blend of z around cell (i, j) with fractions (fx, fy) from :func:`bracket`."""
+    return ((1.0 - fx) * ((1.0 - fy) * z[i, j] + fy * z[i, j + 1])
+            + fx * ((1.0 - fy) * z[i + 1, j] + fy * z[i + 1, j + 1]))
 
 
 @njit(cache=True, inline="always")
 def interp2(x: float, y: float, xs: np.ndarray, ys: np.ndarray, z: np.ndarray) -> float:
     """Bilinear interpolation of z[i, j] = f(xs[i], ys[j]) at (x, y), clamped to the grid."""
-    nx, ny = xs.shape[0], ys.shape[0]
-    if x <= xs[0]:
-        i, fx = 0, 0.0
-    elif x >= xs[nx - 1]:
-        i, fx = nx - 2, 1.0
-    else:
-        i = np.searchsorted(xs, x) - 1
-        fx = (x - xs[i]) / (xs[i + 1] - xs[i])
-    if y <= ys[0]:
-        j, fy = 0, 0.0
-    elif y >= ys[ny - 1]:
-        j, fy = ny - 2, 1.0
-    else:
-        j = np.searchsorted(ys, y) - 1
-        fy = (y - ys[j]) / (ys[j + 1] - ys[j])
-    z00, z01, z10, z11 = z[i, j], z[i, j + 1], z[i + 1, j], z[i + 1, j + 1]
-    return (1.0 - fx) * ((1.0 - fy) * z00 + fy * z01) + fx * ((1.0 - fy) * z10 + fy * z11)
+    i, fx = bracket(x, xs)
+    j, fy = bracket(y, ys)
+    return blend(z, i, j, fx, fy)
+
+
+@njit(cache=True, inline="always")
+def interp_uniform(x: float, x0: float, dx: float, ys: np.ndarray) -> float:
+    """Linear interpolation on the uniform grid ``x0 + dx * i`` (O(1)), clamped to the end values."""
+    n = ys.shape[0]
+    u = (x - x0) / dx
+    if u <= 0.0:
+        return ys[0]
+    if u >= n - 1:
+        return ys[n - 1]
+    i = int(u)
+    f = u - i
+    return ys[i] + f * (ys[i + 1] - ys[i])

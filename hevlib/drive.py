@@ -1,0 +1,466 @@
+"""Forward-facing drive-cycle kernels (numba), parallel over designs.
+
+Each step the driver asks for the force that takes the vehicle from its achieved speed ``v0`` to the
+cycle's next speed; the supervisory controller decides the engine state; the driveline delivers what
+its limits (and front-axle adhesion) allow; the achieved speed follows from the force actually
+delivered. A force-limited step is solved as a fixed point (speed -> available force -> speed), so
+weak designs fall behind the trace instead of breaking physics. Results accumulate per design in the
+``O_*`` columns of :mod:`hevlib.powertrain.layout`; full traces only for designs asked to record.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit, prange
+
+from hevlib.control import PmsConfig, supervise
+from hevlib.powertrain import conventional as conv
+from hevlib.powertrain import hybrid as split
+from hevlib.powertrain import layout as L  # O_*, T_* column indices (compile-time constants)
+from hevlib.powertrain.battery import current_for_power, power_limits
+from hevlib.powertrain.engine import EngineArrays, max_torque, rates
+from hevlib.powertrain.lookup import bracket
+from hevlib.powertrain.machines import MachineArrays, torque_limit
+from hevlib.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_force
+
+LIMIT_TOL = 1e-9          # relative tolerance of the limit checks
+
+
+class BatteryArrays(NamedTuple):
+    """One module's Rint tables vs SOC (the pack multiplies voltages and resistances by n_bat)."""
+
+    soc: np.ndarray
+    ocv_v: np.ndarray
+    r_dis_ohm: np.ndarray
+    r_chg_ohm: np.ndarray
+
+
+class DriveConfig(NamedTuple):
+    """Scalars shared by every design of a batch (chassis, limits, battery, controller)."""
+
+    dt: float
+    mass_factor: float
+    mu: float
+    rho: float
+    g: float
+    cda: float
+    crr: float
+    r: float
+    axle0_nm: float
+    axle_per_kg_nm: float
+    h_over_l: float
+    f_front: float
+    soc_init: float
+    soc_min: float
+    soc_max: float
+    eta_pg: float
+    eta_fd: float
+    i_max_a: float
+    regen_frac: float
+    regen_fade_mps: float
+    p_acc_w: float            # hybrid: electrical; conventional: mechanical
+    lhv_j_per_g: float
+    w_e_min: float
+    w_e_max: float
+    w_m_max: float
+    w_g_max: float
+    cap_as: float             # module capacity, A s
+    eta_c: float
+    v_min_mod: float
+    v_max_mod: float
+    w_idle: float
+    w_launch: float
+
+
+# per-design row of the design matrix the kernels read
+R_S_ENG, R_S_MOT, R_S_GEN, R_I0, R_N_BAT, R_N_R, R_N_S, R_MASS = range(8)
+N_R = 8
+
+
+@njit(cache=True, inline="always")
+def chassis(m: float, c: DriveConfig) -> Chassis:
+    return Chassis(m, m * c.mass_factor, c.cda, c.crr, c.r, c.axle0_nm + c.axle_per_kg_nm * m, c.h_over_l,
+                   c.f_front, c.mu, c.rho, c.g)
+
+
+@njit(cache=True, inline="always")
+def split_design(row: np.ndarray, c: DriveConfig) -> split.SplitDesign:
+    return split.SplitDesign(row[R_S_ENG], row[R_S_MOT], row[R_S_GEN], row[R_I0], row[R_N_R], row[R_N_S], c.r,
+                             c.w_e_min, c.w_e_max, c.w_m_max, c.w_g_max, c.eta_pg, c.eta_fd, c.p_acc_w)
+
+
+@njit(cache=True, inline="always")
+def split_speed_limit(d: split.SplitDesign) -> float:
+    """Top vehicle speed the component speed limits allow (motor on the ring; engine and generator
+    through Willis), m/s."""
+    w_r_max = min(d.w_m_max, ((d.n_r + d.n_s) * d.w_e_max + d.n_s * d.w_g_max) / d.n_r)
+    return w_r_max * d.r / d.i0
+
+
+@njit(cache=True, inline="always")
+def pack_state(soc: float, n_bat: float, B: BatteryArrays) -> tuple[float, float, float]:
+    """(OCV, discharge resistance, charge resistance) of the series pack at ``soc``."""
+    i, f = bracket(soc, B.soc)
+    ocv = B.ocv_v[i] + f * (B.ocv_v[i + 1] - B.ocv_v[i])
+    r_d = B.r_dis_ohm[i] + f * (B.r_dis_ohm[i + 1] - B.r_dis_ohm[i])
+    r_c = B.r_chg_ohm[i] + f * (B.r_chg_ohm[i + 1] - B.r_chg_ohm[i])
+    return n_bat * ocv, n_bat * r_d, n_bat * r_c
+
+
+@njit(cache=True, inline="always")
+def pack_limits(soc: float, n_bat: float, c: DriveConfig, B: BatteryArrays) -> tuple[float, float]:
+    ocv, r_d, r_c = pack_state(soc, n_bat, B)
+    return power_limits(ocv, r_d, r_c, n_bat * c.v_min_mod, n_bat * c.v_max_mod, c.i_max_a, soc, c.soc_min,
+                        c.soc_max, c.cap_as, c.eta_c, c.dt)
+
+
+@njit(cache=True, inline="always")
+def _clean(x: float) -> float:
+    """A shortfall or error, with round-off (below 1e-9 m/s or m/s^2) counted as none."""
+    return x if x > 1e-9 else 0.0
+
+
+@njit(cache=True, inline="always")
+def _over(x: float, cap: float) -> bool:
+    return x > cap * (1.0 + LIMIT_TOL) + 1e-12
+
+
+SPEED_TOL = 1e-5          # m/s, convergence of a force-limited step's speed
+
+
+@njit(cache=True, inline="always")
+def _secant_step(v_a: float, h_a: float, v_b: float, h_b: float, v_max: float) -> float:
+    """Next guess for the root of h(v) = v_bought(v) - v from two iterates (fixed point if degenerate)."""
+    den = h_b - h_a
+    v = v_b - h_b * (v_b - v_a) / den if abs(den) > 1e-15 else v_b + h_b
+    return min(max(v, 0.0), v_max)
+
+
+@njit(cache=True)
+def _limited_split(v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st, d, ch, E, M, G):
+    """Solve a force-limited step of the power-split car: the mean speed ``v`` (<= ``v_cap``) at which
+    the force the driveline gives at ``v`` (``st``: its state at ``v_req``) buys exactly ``v``
+    (secant iteration from ``v_req``). Returns (state, v_disp, v_avg)."""
+    v_a = v_req
+    h_a = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_a
+    v_b = min(max(v_a + h_a, 0.0), v_cap)
+    for _ in range(12):
+        st = split.dispatch(v_b, f_cmd, eng_on, split.engine_power_max(split.ring_speed(v_b, d), d, E, G), p_dis,
+                            p_chg, regen, d, E, M, G)
+        h_b = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_b
+        if abs(h_b) <= SPEED_TOL:
+            break
+        v_a, h_a, v_b = v_b, h_b, _secant_step(v_a, h_a, v_b, h_b, v_cap)
+    return st, v_b, mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch)
+
+
+@njit(cache=True)
+def _limited_conv(v0, v_req, v_cap, f_cmd, ratio, sn, cs, dt, st, d, ch, E):
+    """As :func:`_limited_split` for the conventional car in a fixed gear."""
+    v_a = v_req
+    h_a = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_a
+    v_b = min(max(v_a + h_a, 0.0), v_cap)
+    for _ in range(12):
+        st = conv.dispatch(v_b, f_cmd, ratio, d, E)
+        h_b = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_b
+        if abs(h_b) <= SPEED_TOL:
+            break
+        v_a, h_a, v_b = v_b, h_b, _secant_step(v_a, h_a, v_b, h_b, v_cap)
+    return st, v_b, mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch)
+
+
+
+@njit(cache=True)
+def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: MachineArrays, G: MachineArrays,
+                B: BatteryArrays, v_ref, grade, sin_g, cos_g, key_on, o, tr, record: bool):
+    d = split_design(row, c)
+    ch = chassis(row[R_MASS], c)
+    n_bat = row[R_N_BAT]
+    cap = c.cap_as
+    dt = c.dt
+    k = d.n_r / d.n_s
+    v_lim = split_speed_limit(d)
+    soc, v = c.soc_init, 0.0
+    eng_on, t_state = False, 1e9
+    soc_lo, soc_hi = soc, soc
+    n = v_ref.shape[0]
+    for t in range(n - 1):
+        v0 = v
+        gr, sn, cs = grade[t], sin_g[t], cos_g[t]
+        v_ref_next = v_ref[t + 1]
+        v_tgt = min(v_ref_next, v_lim)
+        ocv, r_d, r_c = pack_state(soc, n_bat, B)
+        p_dis, p_chg = power_limits(ocv, r_d, r_c, n_bat * c.v_min_mod, n_bat * c.v_max_mod, c.i_max_a, soc,
+                                    c.soc_min, c.soc_max, cap, c.eta_c, dt)
+        stationary = v0 <= 1e-9 and v_tgt <= 1e-9
+        if stationary and not key_on[t]:
+            # prescribed key-off (e.g. the FTP soak): nothing runs, no accessory load
+            eng_on = False
+            o[L.O_N_STEPS] += 1.0
+            o[L.O_SPEED_ERR_SUM] += v_ref_next
+            t_state += dt
+            if record:
+                tr[t + 1, L.T_SOC] = soc
+                tr[t + 1, L.T_GRADE] = gr
+            continue
+        v_req = 0.0 if stationary else 0.5 * (v0 + v_tgt)
+        f_aero, f_roll, f_grade, f_axle = road_force(v_req, sn, cs, ch)
+        f_road = f_aero + f_roll + f_grade + f_axle
+        f_req = 0.0 if stationary else ch.m_eff * (v_tgt - v0) / dt + f_road
+        f_adh = adhesion_limit(sn, cs, f_road, ch)
+        f_cmd = min(f_req, f_adh) if f_req >= 0.0 else max(f_req, -f_adh)
+        regen = c.regen_frac * min(v_req / c.regen_fade_mps, 1.0)
+        w_r = split.ring_speed(v_req, d)
+        t_r_req = split.ring_torque_for_wheel_force(f_cmd, d)
+        want, p_target = supervise(eng_on, t_state, soc, gr, v0 * 3.6, w_r, t_r_req, p_dis, th, pc, d, E, M, G)
+        if want != eng_on:
+            if want:
+                o[L.O_N_STARTS] += 1.0
+            eng_on = want
+            t_state = 0.0
+        st = split.dispatch(v_req, f_cmd, eng_on, p_target, p_dis, p_chg, regen, d, E, M, G)
+        v_disp = v_req
+        f_brake = 0.0
+        limited = not stationary and f_req > 0.0 and st.f_del < f_req - 1e-6 * max(1.0, f_req)
+        if stationary:
+            v_avg = 0.0
+        elif limited:
+            # the driver floors it: engine at full power, then the speed this force buys (fixed point)
+            st = split.dispatch(v_req, f_cmd, eng_on, split.engine_power_max(w_r, d, E, G), p_dis, p_chg, regen,
+                                d, E, M, G)
+            limited = st.f_del < f_req - 1e-6 * max(1.0, f_req)
+            if limited:
+                o[L.O_N_LIMITED] += 1.0
+                st, v_disp, v_avg = _limited_split(v0, v_req, v_req, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st,
+                                                   d, ch, E, M, G)
+            else:
+                v_avg = v_req
+                f_brake = f_req - st.f_del
+        else:
+            v_avg = v_req
+            f_brake = f_req - st.f_del
+        v_next = max(2.0 * v_avg - v0, 0.0)
+        # ---- battery
+        i_a = current_for_power(st.p_batt, ocv, r_d, r_c)
+        q = i_a * dt if i_a >= 0.0 else c.eta_c * i_a * dt
+        soc -= q / cap
+        p_chem = ocv * q / dt
+        # ---- engine
+        fuel = hc = co = nox = 0.0
+        if st.running:
+            fuel, hc, co, nox = rates(st.w_e, st.t_e, d.s_eng, E)
+            o[L.O_ENG_ON_STEPS] += 1.0
+        p_shaft = st.t_e * st.w_e
+        # ---- energy accounting (J)
+        fa, fr, fg, fx = road_force(v_avg, sn, cs, ch)
+        o[L.O_FUEL_G] += fuel * dt
+        o[L.O_HC_G] += hc * dt
+        o[L.O_CO_G] += co * dt
+        o[L.O_NOX_G] += nox * dt
+        o[L.O_E_FUEL] += fuel * c.lhv_j_per_g * dt
+        o[L.O_E_ENG_SHAFT] += p_shaft * dt
+        o[L.O_E_LOSS_ENG] += (fuel * c.lhv_j_per_g - p_shaft) * dt
+        o[L.O_E_BATT] += p_chem * dt
+        o[L.O_E_LOSS_BATT] += (p_chem - st.p_batt) * dt
+        o[L.O_E_LOSS_MOT] += (st.p_m_e - st.t_m * st.w_r) * dt
+        o[L.O_E_LOSS_GEN] += (st.p_g_e - st.t_g * st.w_g) * dt
+        o[L.O_E_GEN_MECH_IN] += max(-st.t_g * st.w_g, 0.0) * dt
+        o[L.O_E_GEN_ELEC_OUT] += max(-st.p_g_e, 0.0) * dt
+        o[L.O_E_LOSS_PG] += (1.0 - d.eta_pg) * st.t_e * k / (1.0 + k) * st.w_r * dt
+        o[L.O_E_LOSS_FD] += (st.t_r * st.w_r - st.f_del * v_disp) * dt
+        o[L.O_E_ACC] += st.p_acc * dt
+        o[L.O_E_ACC_SHED] += (d.p_acc_w - st.p_acc) * dt
+        w_wheel = st.f_del * v_disp * dt
+        if w_wheel >= 0.0:
+            o[L.O_E_TRACTION] += w_wheel
+        else:
+            o[L.O_E_REGEN] -= w_wheel
+        o[L.O_E_BRAKE] -= f_brake * v_avg * dt
+        o[L.O_E_ROAD] += (fa + fr + fx) * v_avg * dt
+        o[L.O_E_GRADE] += fg * v_avg * dt
+        if limited:
+            # residual of a limited step: driveline work at v_disp vs the motion it bought
+            a = 2.0 * (v_avg - v0) / dt
+            o[L.O_E_MISMATCH] += w_wheel - (ch.m_eff * a + fa + fr + fg + fx) * v_avg * dt
+        # ---- cycle-following statistics
+        a_req = (v_ref_next - v_ref[t]) / dt       # what the cycle asks for this step
+        if a_req > 0.0:
+            o[L.O_ACC_REQ] += a_req
+            o[L.O_ACC_SHORT] += _clean(a_req - (v_next - v0) / dt)
+        err = _clean(abs(v_ref_next - v_next))
+        o[L.O_SPEED_ERR_SUM] += err
+        o[L.O_MAX_SPEED_ERR] = max(o[L.O_MAX_SPEED_ERR], err)
+        o[L.O_DIST_M] += v_avg * dt
+        o[L.O_DIST_REF_M] += 0.5 * (v_ref[t] + v_ref_next) * dt
+        o[L.O_N_STEPS] += 1.0
+        soc_lo, soc_hi = min(soc_lo, soc), max(soc_hi, soc)
+        # ---- limits
+        bad = 0.0
+        if st.running:
+            if _over(st.w_e, d.w_e_max) or st.w_e < d.w_e_min * (1.0 - LIMIT_TOL):
+                bad += 1.0
+            if _over(st.t_e, max_torque(st.w_e, d.s_eng, E)):
+                bad += 1.0
+        if _over(abs(st.w_g), d.w_g_max) or _over(abs(st.t_g), torque_limit(st.w_g, d.s_gen, G)):
+            bad += 1.0
+        if _over(st.w_r, d.w_m_max) or _over(abs(st.t_m), torque_limit(st.w_r, d.s_mot, M)):
+            bad += 1.0
+        if soc < c.soc_min - 1e-9 or soc > c.soc_max + 1e-9:
+            bad += 1.0
+        o[L.O_LIMIT_VIOLATIONS] += bad
+        if record:
+            tr[t + 1, L.T_V_REF] = v_ref_next
+            tr[t + 1, L.T_V] = v_next
+            tr[t + 1, L.T_SOC] = soc
+            tr[t + 1, L.T_W_E] = st.w_e
+            tr[t + 1, L.T_T_E] = st.t_e
+            tr[t + 1, L.T_W_M] = st.w_r
+            tr[t + 1, L.T_T_M] = st.t_m
+            tr[t + 1, L.T_W_G] = st.w_g
+            tr[t + 1, L.T_T_G] = st.t_g
+            tr[t + 1, L.T_P_BATT] = st.p_batt
+            tr[t + 1, L.T_FUEL] = fuel
+            tr[t + 1, L.T_ENG_ON] = 1.0 if st.running else 0.0
+            tr[t + 1, L.T_F_PT] = st.f_del
+            tr[t + 1, L.T_F_BRK] = f_brake
+            tr[t + 1, L.T_GEAR] = 0.0
+            tr[t + 1, L.T_A_REQ] = a_req
+            tr[t + 1, L.T_A_ACH] = (v_next - v0) / dt
+            tr[t + 1, L.T_P_MOT_E] = st.p_m_e
+            tr[t + 1, L.T_P_GEN_E] = st.p_g_e
+            tr[t + 1, L.T_T_E_MAX] = max_torque(st.w_e, d.s_eng, E) if st.running else 0.0
+            tr[t + 1, L.T_T_M_MAX] = torque_limit(st.w_r, d.s_mot, M)
+            tr[t + 1, L.T_T_G_MAX] = torque_limit(st.w_g, d.s_gen, G)
+            tr[t + 1, L.T_GRADE] = gr
+        v = v_next
+        t_state += dt
+    o[L.O_SOC_END] = soc
+    o[L.O_SOC_MIN_SEEN] = soc_lo
+    o[L.O_SOC_MAX_SEEN] = soc_hi
+    o[L.O_E_KIN_END] = 0.5 * ch.m_eff * v * v
+    if record:
+        tr[0, L.T_V_REF] = v_ref[0]
+        tr[0, L.T_SOC] = c.soc_init
+        tr[0, L.T_GRADE] = grade[0]
+
+
+@njit(cache=True, parallel=True)
+def drive_hybrid(rows, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: MachineArrays,
+                 G: MachineArrays, B: BatteryArrays, v_ref, grade, sin_g, cos_g, key_on, out, traces, rec_index):
+    """Drive every design (rows of the design matrix, ``R_*`` columns) over the cycle; fill ``out``."""
+    for i in prange(rows.shape[0]):
+        j = rec_index[i]
+        tr = traces[max(j, 0)]
+        _hybrid_one(rows[i], c, th, pc, E, M, G, B, v_ref, grade, sin_g, cos_g, key_on, out[i], tr, j >= 0)
+
+
+@njit(cache=True)
+def _conventional_one(row, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesign, E: EngineArrays,
+                      v_ref, grade, sin_g, cos_g, key_on, o, tr, record: bool):
+    ch = chassis(row[R_MASS], c)
+    dt = c.dt
+    v_lim = d.w_e_max * d.r / ratios[-1]
+    v = 0.0
+    n = v_ref.shape[0]
+    for t in range(n - 1):
+        v0 = v
+        gr, sn, cs = grade[t], sin_g[t], cos_g[t]
+        v_ref_next = v_ref[t + 1]
+        v_tgt = min(v_ref_next, v_lim)
+        stationary = v0 <= 1e-9 and v_tgt <= 1e-9
+        if stationary and not key_on[t]:
+            o[L.O_N_STEPS] += 1.0
+            o[L.O_SPEED_ERR_SUM] += v_ref_next
+            if record:
+                tr[t + 1, L.T_GRADE] = gr
+            continue
+        v_req = 0.0 if stationary else 0.5 * (v0 + v_tgt)
+        f_aero, f_roll, f_grade, f_axle = road_force(v_req, sn, cs, ch)
+        f_road = f_aero + f_roll + f_grade + f_axle
+        f_req = 0.0 if stationary else ch.m_eff * (v_tgt - v0) / dt + f_road
+        f_cmd = min(f_req, adhesion_limit(sn, cs, f_road, ch))
+        g0 = conv.scheduled_gear(v0 * 3.6, upshift_kmh)
+        while g0 > 0 and v_req / d.r * ratios[g0] < d.w_idle and f_req > 0.0:
+            g0 -= 1                                   # never lug below idle in a traction step
+        gear = conv.best_gear(v_req, f_cmd, g0, ratios, d, E) if f_cmd > 0.0 else g0
+        st = conv.dispatch(v_req, f_cmd, ratios[gear], d, E)
+        v_disp = v_req
+        f_brake = 0.0
+        limited = not stationary and f_req > 0.0 and st.f_del < f_req - 1e-6 * max(1.0, f_req)
+        if stationary:
+            v_avg = 0.0
+        elif limited:
+            o[L.O_N_LIMITED] += 1.0
+            st, v_disp, v_avg = _limited_conv(v0, v_req, v_req, f_cmd, ratios[gear], sn, cs, dt, st, d, ch, E)
+        else:
+            v_avg = v_req
+            f_brake = f_req - st.f_del
+        v_next = max(2.0 * v_avg - v0, 0.0)
+        fuel, hc, co, nox = rates(st.w_e, max(st.t_e, 0.0), d.s_eng, E)
+        p_shaft = st.t_e * st.w_e
+        fa, fr, fg, fx = road_force(v_avg, sn, cs, ch)
+        o[L.O_FUEL_G] += fuel * dt
+        o[L.O_HC_G] += hc * dt
+        o[L.O_CO_G] += co * dt
+        o[L.O_NOX_G] += nox * dt
+        o[L.O_E_FUEL] += fuel * c.lhv_j_per_g * dt
+        o[L.O_E_ENG_SHAFT] += p_shaft * dt
+        o[L.O_E_LOSS_ENG] += (fuel * c.lhv_j_per_g - p_shaft) * dt
+        o[L.O_E_ACC] += d.p_acc_w * dt
+        o[L.O_E_LOSS_GB] += st.loss_gb_w * dt
+        o[L.O_E_LOSS_CLUTCH] += st.loss_clutch_w * dt
+        w_wheel = st.f_del * v_disp * dt
+        o[L.O_E_TRACTION] += w_wheel
+        o[L.O_E_BRAKE] -= f_brake * v_avg * dt
+        o[L.O_E_ROAD] += (fa + fr + fx) * v_avg * dt
+        o[L.O_E_GRADE] += fg * v_avg * dt
+        if limited:
+            a = 2.0 * (v_avg - v0) / dt
+            o[L.O_E_MISMATCH] += w_wheel - (ch.m_eff * a + fa + fr + fg + fx) * v_avg * dt
+        o[L.O_ENG_ON_STEPS] += 1.0
+        a_req = (v_ref_next - v_ref[t]) / dt       # what the cycle asks for this step
+        if a_req > 0.0:
+            o[L.O_ACC_REQ] += a_req
+            o[L.O_ACC_SHORT] += _clean(a_req - (v_next - v0) / dt)
+        err = _clean(abs(v_ref_next - v_next))
+        o[L.O_SPEED_ERR_SUM] += err
+        o[L.O_MAX_SPEED_ERR] = max(o[L.O_MAX_SPEED_ERR], err)
+        o[L.O_DIST_M] += v_avg * dt
+        o[L.O_DIST_REF_M] += 0.5 * (v_ref[t] + v_ref_next) * dt
+        o[L.O_N_STEPS] += 1.0
+        if _over(st.w_e, d.w_e_max) or _over(st.t_e, max_torque(st.w_e, d.s_eng, E)):
+            o[L.O_LIMIT_VIOLATIONS] += 1.0
+        if record:
+            tr[t + 1, L.T_V_REF] = v_ref_next
+            tr[t + 1, L.T_V] = v_next
+            tr[t + 1, L.T_W_E] = st.w_e
+            tr[t + 1, L.T_T_E] = st.t_e
+            tr[t + 1, L.T_FUEL] = fuel
+            tr[t + 1, L.T_ENG_ON] = 1.0
+            tr[t + 1, L.T_F_PT] = st.f_del
+            tr[t + 1, L.T_F_BRK] = f_brake
+            tr[t + 1, L.T_GEAR] = gear + 1.0 if st.engaged else 0.0
+            tr[t + 1, L.T_A_REQ] = a_req
+            tr[t + 1, L.T_A_ACH] = (v_next - v0) / dt
+            tr[t + 1, L.T_T_E_MAX] = max_torque(st.w_e, d.s_eng, E)
+            tr[t + 1, L.T_GRADE] = gr
+        v = v_next
+    o[L.O_SOC_END] = c.soc_init
+    o[L.O_SOC_MIN_SEEN] = c.soc_init
+    o[L.O_SOC_MAX_SEEN] = c.soc_init
+    o[L.O_E_KIN_END] = 0.5 * ch.m_eff * v * v
+    if record:
+        tr[0, L.T_V_REF] = v_ref[0]
+        tr[0, L.T_GRADE] = grade[0]
+
+
+@njit(cache=True)
+def drive_conventional(rows, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesign, E: EngineArrays,
+                       v_ref, grade, sin_g, cos_g, key_on, out, traces, rec_index):
+    for i in range(rows.shape[0]):
+        j = rec_index[i]
+        _conventional_one(rows[i], c, ratios, upshift_kmh, d, E, v_ref, grade, sin_g, cos_g, key_on, out[i],
+                          traces[max(j, 0)],
+                          j >= 0)

@@ -1,0 +1,127 @@
+"""Flat-road performance tests (numba): full-power launch, 0-100 km/h time and top speed.
+
+Launch: from standstill with everything the driveline can give (engine at the top of its speed window
+when it can run, motor at its torque limit within the battery's discharge limit at the initial SOC),
+front-axle adhesion respected, stepped at ``dt``. ``f_max`` is the highest acceleration reached
+(m/s^2), ``t_0_100_s`` the time to 100 km/h (inf if not reached within ``t_max``). Top speed ``v_max``
+(km/h): the highest steady speed at which the available force still covers the road load, never
+above the speed the component speed limits allow through ``i0`` and the gear set (or gearbox).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from hevlib.drive import (
+    R_MASS,
+    R_N_BAT,
+    DriveConfig,
+    _limited_conv,
+    _limited_split,
+    chassis,
+    pack_limits,
+    split_design,
+    split_speed_limit,
+)
+from hevlib.powertrain import conventional as conv
+from hevlib.powertrain import hybrid as split
+from hevlib.powertrain.engine import EngineArrays
+from hevlib.powertrain.machines import MachineArrays
+from hevlib.powertrain.vehicle import adhesion_limit, road_total
+
+V_100 = 100.0 / 3.6
+BIG_FORCE = 1e7
+
+
+@njit(cache=True)
+def _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G):
+    """Everything the power-split driveline can give at speed ``v`` on a flat road."""
+    f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
+    p_max = split.engine_power_max(split.ring_speed(v, d), d, E, G)
+    return f_cmd, split.dispatch(v, f_cmd, True, p_max, p_dis, p_chg, 1.0, d, E, M, G)
+
+
+@njit(cache=True)
+def _conv_gear(v, ratios, d, ch, E):
+    """(wheel force command, best gear, its state) of the conventional car at speed ``v``."""
+    f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
+    g_best, st_best = 0, conv.dispatch(v, f_cmd, ratios[0], d, E)
+    for g in range(1, ratios.shape[0]):
+        st = conv.dispatch(v, f_cmd, ratios[g], d, E)
+        if st.f_del > st_best.f_del:
+            g_best, st_best = g, st
+    return f_cmd, g_best, st_best
+
+
+@njit(cache=True)
+def _surplus(kind, v, p_dis, p_chg, ratios, d, cd, ch, E, M, G):
+    """Force left over the flat-road load at steady speed ``v``, N."""
+    if kind == 0:
+        f = _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G)[1].f_del
+    else:
+        f = _conv_gear(v, ratios, cd, ch, E)[2].f_del
+    return f - road_total(v, 0.0, 1.0, ch)
+
+
+@njit(cache=True)
+def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
+    """kind 0: power-split hybrid, 1: conventional. Returns (f_max, t_0_100_s, v_max_kmh)."""
+    ch = chassis(row[R_MASS], c)
+    d = split_design(row, c)
+    if kind == 0:
+        p_dis, p_chg = pack_limits(c.soc_init, row[R_N_BAT], c, B)
+        v_lim = split_speed_limit(d)
+    else:
+        p_dis, p_chg = 0.0, 0.0
+        v_lim = cd.w_e_max * cd.r / ratios[-1]
+    # ---- launch: each step the speed the full force buys (as in a force-limited driving step)
+    v, t, f_max, t100 = 0.0, 0.0, 0.0, np.inf
+    while t < t_max and v < v_lim:
+        if kind == 0:
+            f_cmd, st = _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G)
+            v_avg = _limited_split(v, v, v_lim, f_cmd, True, p_dis, p_chg, 1.0, 0.0, 1.0, dt, st, d, ch, E, M, G)[2]
+        else:
+            # the gear that gains most speed over the step (a gear running out of revs mid-step loses)
+            f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
+            v_avg = 0.0
+            for g in range(ratios.shape[0]):
+                st_c = conv.dispatch(v, f_cmd, ratios[g], cd, E)
+                v_avg = max(v_avg, _limited_conv(v, v, v_lim, f_cmd, ratios[g], 0.0, 1.0, dt, st_c, cd, ch, E)[2])
+        v_next = min(max(2.0 * v_avg - v, 0.0), v_lim)
+        a = (v_next - v) / dt
+        f_max = max(f_max, a)
+        if v_next >= V_100:
+            t100 = t + dt * (V_100 - v) / max(v_next - v, 1e-12)
+            break
+        if a <= 1e-6:
+            break
+        v, t = v_next, t + dt
+    # ---- top speed: the largest v <= v_lim with force >= road load (coarse scan down, then bisection)
+    if _surplus(kind, v_lim, p_dis, p_chg, ratios, d, cd, ch, E, M, G) >= 0.0:
+        return f_max, t100, v_lim * 3.6
+    hi = v_lim
+    lo = hi
+    while lo > 0.0:
+        lo = max(lo - 5.0, 0.0)
+        if _surplus(kind, lo, p_dis, p_chg, ratios, d, cd, ch, E, M, G) >= 0.0:
+            break
+        hi = lo
+    while hi - lo > 1e-3:
+        mid = 0.5 * (lo + hi)
+        if _surplus(kind, mid, p_dis, p_chg, ratios, d, cd, ch, E, M, G) >= 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return f_max, t100, lo * 3.6
+
+
+@njit(cache=True, parallel=True)
+def performance_batch(kind: int, rows: np.ndarray, c: DriveConfig, ratios: np.ndarray, cd: conv.ConvDesign,
+                      E: EngineArrays, M: MachineArrays, G: MachineArrays, B, dt: float, t_max: float) -> np.ndarray:
+    """(n, 3) array of f_max (m/s^2), t_0_100_s, v_max (km/h) for every design row."""
+    out = np.empty((rows.shape[0], 3))
+    for i in prange(rows.shape[0]):
+        f_max, t100, v_max = _launch_and_top(kind, rows[i], c, ratios, cd, E, M, G, B, dt, t_max)
+        out[i, 0], out[i, 1], out[i, 2] = f_max, t100, v_max
+    return out

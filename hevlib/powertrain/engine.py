@@ -1,0 +1,55 @@
+"""Scaled spark-ignition engine (numba): full-load torque, fuel and emission rates, best-efficiency line.
+
+A design's engine is the base map scaled by ``s = P_design / P_base`` at a fixed speed axis: torque
+limits and every rate multiply by ``s`` and the maps are read at the normalised torque ``T / s``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from hevlib.powertrain.lookup import blend, bracket, interp1, interp_uniform
+
+
+class EngineArrays(NamedTuple):
+    """Base (unscaled) engine tables as the kernels see them; rates in g/s on (speed, torque)."""
+
+    w: np.ndarray          # speed axis, rad/s
+    t: np.ndarray          # torque axis, N m
+    t_max: np.ndarray      # full-load torque vs w, N m
+    fuel: np.ndarray       # g/s
+    hc: np.ndarray
+    co: np.ndarray
+    nox: np.ndarray
+    line_p: np.ndarray     # best-efficiency line: shaft power, W (uniform grid from 0)
+    line_w: np.ndarray     # ... and the speed that burns least fuel at that power, rad/s
+    line_t: np.ndarray     # ... and its torque (line_p / line_w), N m, increasing with power
+
+
+@njit(cache=True, inline="always")
+def max_torque(w: float, s: float, e: EngineArrays) -> float:
+    return interp1(w, e.w, e.t_max) * s
+
+
+@njit(cache=True, inline="always")
+def line_speed(p_w: float, s: float, e: EngineArrays) -> float:
+    """Speed of least fuel for shaft power ``p_w`` of the engine scaled by ``s``."""
+    return interp_uniform(p_w / s, 0.0, e.line_p[1], e.line_w)
+
+
+@njit(cache=True, inline="always")
+def line_power_for_torque(t: float, s: float, e: EngineArrays) -> float:
+    """Shaft power on the best-efficiency line where the scaled engine gives torque ``t``."""
+    return s * interp1(t / s, e.line_t, e.line_p)
+
+
+@njit(cache=True)
+def rates(w: float, t: float, s: float, e: EngineArrays) -> tuple[float, float, float, float]:
+    """(fuel, hc, co, nox) in g/s at speed ``w`` and torque ``t`` (>= 0) of the engine scaled by ``s``."""
+    i, fx = bracket(w, e.w)
+    j, fy = bracket(t / s, e.t)
+    return (s * blend(e.fuel, i, j, fx, fy), s * blend(e.hc, i, j, fx, fy),
+            s * blend(e.co, i, j, fx, fy), s * blend(e.nox, i, j, fx, fy))

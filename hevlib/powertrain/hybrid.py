@@ -1,0 +1,261 @@
+"""Power-split (Prius-type) driveline operating point (numba).
+
+Engine on the planet carrier, generator on the sun, motor and final drive on the ring. Given the
+vehicle's mean speed over a step, the wheel force requested and the supervisory decisions (engine on,
+target engine power), :func:`dispatch` returns a :class:`SplitState` that honours every limit: engine
+full load and speed window, generator torque and speed, motor torque, battery power. What the
+driveline cannot deliver shows up as ``f_del < f_req`` (traction) or as friction braking (braking).
+
+Torque conventions (steady state, inertias lumped into the vehicle's mass factor):
+carrier torque ``t_e`` splits into ``t_e k/(1+k)`` on the ring (times the gear-set efficiency) and
+``t_e/(1+k)`` on the sun, which the generator reacts with ``t_g = -t_e/(1+k)`` (``k = N_r/N_s``).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+from numba import njit
+
+from hevlib.powertrain.engine import EngineArrays, line_speed, max_torque
+from hevlib.powertrain.machines import MachineArrays, electric_power, torque_for_power, torque_limit
+from hevlib.powertrain.planetary import carrier_speed_window, sun_speed
+
+
+class SplitDesign(NamedTuple):
+    """Per-design driveline scalars (scale factors are design power / base map power)."""
+
+    s_eng: float
+    s_mot: float
+    s_gen: float
+    i0: float
+    n_r: float
+    n_s: float
+    r: float               # wheel radius, m
+    w_e_min: float         # lowest running engine speed, rad/s
+    w_e_max: float
+    w_m_max: float
+    w_g_max: float
+    eta_pg: float          # planetary gear set (carrier -> ring path)
+    eta_fd: float          # final drive
+    p_acc_w: float         # electrical accessory load
+
+
+class SplitState(NamedTuple):
+    f_del: float           # wheel force the driveline delivers, N (negative = regenerative braking)
+    running: bool          # engine turning under its own power
+    w_e: float
+    t_e: float
+    w_r: float             # ring = motor speed
+    t_m: float
+    w_g: float
+    t_g: float
+    p_m_e: float           # motor electrical power, W (+ drawn)
+    p_g_e: float           # generator electrical power, W (+ drawn)
+    p_acc: float           # accessory power actually served, W
+    p_batt: float          # battery terminal power, W (+ discharge)
+    t_r: float             # total ring torque, N m
+
+
+@njit(cache=True, inline="always")
+def ring_speed(v: float, d: SplitDesign) -> float:
+    return v / d.r * d.i0
+
+
+@njit(cache=True, inline="always")
+def ring_torque_for_wheel_force(f: float, d: SplitDesign) -> float:
+    t_wh = f * d.r
+    return t_wh / (d.i0 * d.eta_fd) if t_wh >= 0.0 else t_wh * d.eta_fd / d.i0
+
+
+@njit(cache=True, inline="always")
+def wheel_force_for_ring_torque(t_r: float, d: SplitDesign) -> float:
+    return t_r * d.i0 * d.eta_fd / d.r if t_r >= 0.0 else t_r * d.i0 / (d.eta_fd * d.r)
+
+
+@njit(cache=True, inline="always")
+def engine_window(w_r: float, d: SplitDesign) -> tuple[float, float]:
+    """Engine speeds allowed at ring speed ``w_r``: own limits and generator speed limit (Willis)."""
+    lo, hi = carrier_speed_window(w_r, d.n_r, d.n_s, d.w_g_max)
+    return max(lo, d.w_e_min), min(hi, d.w_e_max)
+
+
+@njit(cache=True, inline="always")
+def generator_overspeed_if_stopped(w_r: float, d: SplitDesign) -> bool:
+    """With the engine stopped the sun turns at -k w_r: above the limit the engine must turn."""
+    return d.n_r / d.n_s * w_r > d.w_g_max
+
+
+@njit(cache=True)
+def engine_power_max(w_r: float, d: SplitDesign, E: EngineArrays, G: MachineArrays) -> float:
+    """Most engine power available at ring speed ``w_r`` (top of the speed window, full load,
+    generator reaction torque), W; 0 when the window is empty."""
+    lo, hi = engine_window(w_r, d)
+    if lo > hi:
+        return 0.0
+    k = d.n_r / d.n_s
+    w_g = sun_speed(hi, w_r, d.n_r, d.n_s)
+    t = min(max_torque(hi, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
+    return t * hi
+
+
+@njit(cache=True)
+def _engine_on(p_e: float, lo: float, hi: float, w_r: float, t_r_drive: float, t_m_cap: float,
+               d: SplitDesign, E: EngineArrays, M: MachineArrays, G: MachineArrays):
+    """Operating point with the engine delivering (up to) ``p_e`` on its best-efficiency line."""
+    k = d.n_r / d.n_s
+    w_e = min(max(line_speed(p_e, d.s_eng, E), lo), hi)
+    w_g = sun_speed(w_e, w_r, d.n_r, d.n_s)
+    t_cap = min(max_torque(w_e, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
+    if p_e > t_cap * w_e and w_e < hi:
+        # the line's torque is more than the engine (or the generator reacting it) can take here:
+        # turn faster to deliver the power with the torque available
+        w_e = min(p_e / t_cap, hi)
+        w_g = sun_speed(w_e, w_r, d.n_r, d.n_s)
+        t_cap = min(max_torque(w_e, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
+    t_e = min(max(p_e / w_e, 0.0), t_cap)
+    t_g = -t_e / (1.0 + k)
+    t_r_eng = d.eta_pg * t_e * k / (1.0 + k)
+    t_m = min(max(t_r_drive - t_r_eng, -t_m_cap), t_m_cap)
+    p_m_e = electric_power(t_m, w_r, d.s_mot, M)
+    p_g_e = electric_power(t_g, w_g, d.s_gen, G)
+    return w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e
+
+
+@njit(cache=True)
+def _engine_power_for_battery(p_a: float, g_a: float, p_b: float, g_b: float, sign: float, target: float,
+                              lo: float, hi: float, w_r: float, t_r_drive: float, t_m_cap: float,
+                              d: SplitDesign, E: EngineArrays, M: MachineArrays, G: MachineArrays) -> float:
+    """Engine power at which the battery power meets a limit: root of ``g(p) = sign (P_batt(p) - target)``
+    between ``p_a`` (``g_a > 0``, violating) and ``p_b`` (``g_b <= 0``, feasible); returns a feasible end.
+
+    Battery power falls monotonically and almost linearly as engine power rises (the gear set hands
+    the extra to the ring and the generator), so a few Illinois regula-falsi steps suffice (1 W).
+    """
+    side = 0
+    for _ in range(12):
+        if abs(p_b - p_a) <= 1.0 or -g_b <= 1.0:
+            break
+        p = p_b - g_b * (p_b - p_a) / (g_b - g_a)
+        if not (min(p_a, p_b) < p < max(p_a, p_b)):
+            p = 0.5 * (p_a + p_b)
+        st = _engine_on(p, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G)
+        g = sign * (st[6] + st[7] + d.p_acc_w - target)
+        if g > 0.0:
+            p_a, g_a = p, g
+            if side == -1:
+                g_b *= 0.5
+            side = -1
+        else:
+            p_b, g_b = p, g
+            if side == 1:
+                g_a *= 0.5
+            side = 1
+    return p_b
+
+
+@njit(cache=True)
+def _less_circulation(t_e: float, w_g: float, p_m_e: float, p_dis: float, d: SplitDesign, G: MachineArrays):
+    """Largest engine torque (<= ``t_e``) whose motoring generator keeps the battery within ``p_dis``
+    (bisection; the generator's draw grows with engine torque); if even none is too much, the
+    accessory load is shed. Returns (t_e, t_g, ring torque from the engine, p_g_e, p_acc)."""
+    k = d.n_r / d.n_s
+    lo, hi = 0.0, t_e
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if p_m_e + electric_power(-mid / (1.0 + k), w_g, d.s_gen, G) + d.p_acc_w > p_dis:
+            hi = mid
+        else:
+            lo = mid
+    p_g_e = electric_power(-lo / (1.0 + k), w_g, d.s_gen, G)
+    p_acc = max(min(d.p_acc_w, p_dis - p_m_e - p_g_e), 0.0)
+    return lo, -lo / (1.0 + k), d.eta_pg * lo * k / (1.0 + k), p_g_e, p_acc
+
+
+@njit(cache=True)
+def dispatch(v: float, f_req: float, engine_on: bool, p_e_target: float, p_dis: float, p_chg: float,
+             regen_frac: float, d: SplitDesign, E: EngineArrays, M: MachineArrays,
+             G: MachineArrays) -> SplitState:
+    """Operating point at mean speed ``v`` for wheel force ``f_req`` within every limit.
+
+    ``p_dis``/``p_chg``: battery discharge/charge power limits (W, >= 0). ``regen_frac``: share of a
+    braking request the driveline may take (the rest is friction braking).
+    """
+    w_r = ring_speed(v, d)
+    t_r_req = ring_torque_for_wheel_force(f_req, d)
+    t_r_drive = t_r_req if t_r_req >= 0.0 else t_r_req * regen_frac
+    t_m_cap = torque_limit(w_r, d.s_mot, M)
+    p_acc = d.p_acc_w
+    lo, hi = engine_window(w_r, d)
+    running = engine_on and lo <= hi
+
+    if running:
+        p_e = p_e_target
+        w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = _engine_on(p_e, lo, hi, w_r, t_r_drive, t_m_cap,
+                                                                   d, E, M, G)
+        p_batt = p_m_e + p_g_e + p_acc
+        if p_batt > p_dis:
+            # more engine power first (battery power falls as engine power rises) ...
+            p_hi = engine_power_max(w_r, d, E, G)
+            if p_hi > p_e:
+                st = _engine_on(p_hi, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G)
+                h_hi = st[6] + st[7] + p_acc
+                p_new = p_hi if h_hi > p_dis else _engine_power_for_battery(
+                    p_e, p_batt - p_dis, p_hi, h_hi - p_dis, 1.0, p_dis, lo, hi, w_r, t_r_drive, t_m_cap,
+                    d, E, M, G)
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = _engine_on(p_new, lo, hi, w_r, t_r_drive,
+                                                                           t_m_cap, d, E, M, G)
+                p_batt = p_m_e + p_g_e + p_acc
+            if p_batt > p_dis and t_m > 0.0:
+                # ... then less motor torque
+                t_m = torque_for_power(max(p_dis - p_acc - p_g_e, 0.0), w_r, d.s_mot, t_m, M)
+                p_m_e = electric_power(t_m, w_r, d.s_mot, M)
+                p_batt = p_m_e + p_g_e + p_acc
+            if p_batt > p_dis and p_g_e > 0.0:
+                # ... and when the generator motors (power circulation: engine slower than the ring
+                # drags the sun backwards) less engine torque, down to none, then accessories shed
+                t_e, t_g, t_r_eng, p_g_e, p_acc = _less_circulation(t_e, w_g, p_m_e, p_dis, d, G)
+            if p_m_e + p_g_e + p_acc > p_dis:
+                # nothing left to cut but the accessories
+                p_acc = max(min(p_acc, p_dis - p_m_e - p_g_e), 0.0)
+            p_batt = p_m_e + p_g_e + p_acc
+        elif p_batt < -p_chg:
+            # less engine power first (battery power rises as engine power falls) ...
+            st0 = _engine_on(0.0, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G)
+            h0 = st0[6] + st0[7] + p_acc
+            if h0 < -p_chg:
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = st0
+            else:
+                p_new = _engine_power_for_battery(p_e, -(p_batt + p_chg), 0.0, -(h0 + p_chg), -1.0, -p_chg,
+                                                  lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G)
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = _engine_on(p_new, lo, hi, w_r, t_r_drive,
+                                                                           t_m_cap, d, E, M, G)
+            p_batt = p_m_e + p_g_e + p_acc
+            if p_batt < -p_chg and t_m < 0.0:
+                # ... then less regenerative torque (friction brakes take the rest)
+                t_m = torque_for_power(min(-p_chg - p_acc - p_g_e, -1e-9), w_r, d.s_mot, -t_m, M)
+                p_m_e = electric_power(t_m, w_r, d.s_mot, M)
+                p_batt = p_m_e + p_g_e + p_acc
+        t_r = t_r_eng + t_m
+    else:
+        w_e, t_e, t_g, p_g_e = 0.0, 0.0, 0.0, 0.0
+        w_g = sun_speed(0.0, w_r, d.n_r, d.n_s)
+        t_m = min(max(t_r_drive, -t_m_cap), t_m_cap)
+        p_m_e = electric_power(t_m, w_r, d.s_mot, M)
+        p_batt = p_m_e + p_acc
+        if p_batt > p_dis:
+            if p_dis - p_acc <= 0.0:
+                # battery at its limit and no other source: no traction, accessory load shed
+                t_m = min(t_m, 0.0)
+                p_m_e = electric_power(t_m, w_r, d.s_mot, M)
+                p_acc = max(min(p_acc, p_dis - p_m_e), 0.0)
+            else:
+                t_m = torque_for_power(p_dis - p_acc, w_r, d.s_mot, t_m, M)
+                p_m_e = electric_power(t_m, w_r, d.s_mot, M)
+        elif p_batt < -p_chg and t_m < 0.0:
+            t_m = torque_for_power(min(-p_chg - p_acc, -1e-9), w_r, d.s_mot, -t_m, M)
+            p_m_e = electric_power(t_m, w_r, d.s_mot, M)
+        p_batt = p_m_e + p_acc
+        t_r = t_m
+    return SplitState(wheel_force_for_ring_torque(t_r, d), running, w_e, t_e, w_r, t_m, w_g, t_g,
+                      p_m_e, p_g_e, p_acc, p_batt, t_r)

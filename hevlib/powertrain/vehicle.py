@@ -1,0 +1,90 @@
+"""Longitudinal vehicle dynamics (numba): road loads, front-axle adhesion, and the speed a force buys.
+
+Forces in N, speeds in m/s; the road grade enters as ``sin_t``/``cos_t`` of its angle
+(``theta = atan(rise/run)``, precomputed once per cycle step by :func:`grade_trig`). ``m`` is the test mass;
+``m_eff = m * mass_factor`` adds the rotating inertia to the translational mass. Road loads are
+evaluated at the step's mean speed ``v_avg``, so that with ``a = 2 (v_avg - v0) / dt``
+
+    F_traction + F_brake = m_eff * a + F_road(v_avg)
+
+holds exactly and the work done over the step, ``F * v_avg * dt``, balances the kinetic energy change.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+
+class Chassis(NamedTuple):
+    """Per-design chassis scalars."""
+
+    m: float               # test mass, kg
+    m_eff: float           # with rotating inertia, kg
+    cda: float             # drag coefficient x frontal area, m^2
+    crr: float             # rolling-resistance coefficient
+    r: float               # wheel rolling radius, m
+    axle_drag_nm: float    # driven-axle drag torque at this mass, N m
+    h_over_l: float        # CG height / wheelbase
+    f_front: float         # static front-axle weight fraction
+    mu: float              # tyre-road adhesion coefficient
+    rho: float             # air density, kg/m^3
+    g: float               # gravity, m/s^2
+
+
+def grade_trig(grade: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(sin, cos) of the road angle for grades given as rise/run."""
+    theta = np.arctan(np.asarray(grade, dtype=float))
+    return np.ascontiguousarray(np.sin(theta)), np.ascontiguousarray(np.cos(theta))
+
+
+@njit(cache=True, inline="always")
+def road_force(v: float, sin_t: float, cos_t: float, c: Chassis) -> tuple[float, float, float, float]:
+    """(aero, rolling, grade, axle-drag) forces in N at speed ``v`` (rolling and drag only when moving)."""
+    f_grade = c.m * c.g * sin_t
+    if v <= 0.0:
+        return 0.0, 0.0, f_grade, 0.0
+    f_aero = 0.5 * c.rho * c.cda * v * v
+    f_roll = c.m * c.g * cos_t * c.crr
+    return f_aero, f_roll, f_grade, c.axle_drag_nm / c.r
+
+
+@njit(cache=True, inline="always")
+def road_total(v: float, sin_t: float, cos_t: float, c: Chassis) -> float:
+    a, b, g, d = road_force(v, sin_t, cos_t, c)
+    return a + b + g + d
+
+
+@njit(cache=True, inline="always")
+def adhesion_limit(sin_t: float, cos_t: float, f_road: float, c: Chassis) -> float:
+    """Largest front-axle tractive (or regenerative braking) force magnitude before the tyres slip.
+
+    Front normal load with the grade and the load transfer of the acceleration the force produces:
+    ``N_f = m g (f cos(theta) - h/L sin(theta)) - m a h/L`` with ``a = (F - F_road) / m_eff``; solve ``F = mu N_f``.
+    """
+    k = c.h_over_l * c.m / c.m_eff
+    n_static = c.m * c.g * (c.f_front * cos_t - c.h_over_l * sin_t)
+    f = c.mu * (n_static + k * f_road) / (1.0 + c.mu * k)
+    return max(f, 0.0)
+
+
+@njit(cache=True)
+def mean_speed_for_force(v0: float, f: float, sin_t: float, cos_t: float, dt: float, c: Chassis) -> float:
+    """Mean speed over a step that starts at ``v0`` with net powertrain+brake force ``f``.
+
+    Solves ``f - F_road(v_avg) = 2 m_eff (v_avg - v0) / dt`` (aero quadratic in v_avg). The vehicle
+    does not roll back: if the force cannot hold it, the step ends at standstill (v_avg = v0 / 2).
+    """
+    f_aero_k = 0.5 * c.rho * c.cda
+    _, f_roll, f_grade, f_axle = road_force(max(v0, 1e-9), sin_t, cos_t, c)
+    b = 2.0 * c.m_eff / dt
+    rhs = f - f_roll - f_grade - f_axle + b * v0   # f_aero_k u^2 + b u = rhs
+    if rhs <= 0.0:
+        return 0.5 * v0 if v0 > 0.0 else 0.0
+    u = 2.0 * rhs / (b + math.sqrt(b * b + 4.0 * f_aero_k * rhs))
+    if 2.0 * u - v0 < 0.0:
+        return 0.5 * v0
+    return u

@@ -1,0 +1,305 @@
+"""The vehicle simulator's Python face: designs in, responses (SPEC section 5) out.
+
+:class:`Simulator` packs the component library and the params into the arrays the numba kernels read
+(:mod:`hevlib.drive`, :mod:`hevlib.performance`), runs batches of designs in parallel and turns the
+per-design accumulators into the eleven objectives and the extra responses. Three vehicles:
+
+- ``hybrid``: a conversion design (seven variables) on the conventional car's chassis;
+- ``prius``: the stock Prius on its own body, wheels and test mass;
+- ``conventional``: the 70 kW five-speed baseline.
+
+Full traces are recorded only on request (:meth:`Simulator.trace`), so memory per design is a few
+hundred bytes whatever the cycle length.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+
+from hevlib import MODEL_VERSION
+from hevlib.components import ComponentLibrary, EngineMap, MachineMap, best_efficiency_line
+from hevlib.control import PmsConfig, thresholds
+from hevlib.cycles import Cycle
+from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
+from hevlib.drive import N_R, BatteryArrays, DriveConfig, drive_conventional, drive_hybrid
+from hevlib.params import Params
+from hevlib.performance import performance_batch
+from hevlib.powertrain.conventional import ConvDesign
+from hevlib.powertrain.engine import EngineArrays
+from hevlib.powertrain.layout import BALANCE_SINKS, N_O, N_T, OUT_NAMES, TRACE_NAMES
+from hevlib.powertrain.machines import MachineArrays
+from hevlib.powertrain.vehicle import grade_trig
+from hevlib.scaling import conventional_chassis_kg, hybrid_masses
+
+Vehicle = Literal["hybrid", "prius", "conventional"]
+VEHICLES: tuple[str, ...] = ("hybrid", "prius", "conventional")
+
+#: Designs that drive less than this share of the cycle get their per-km figures on this distance
+#: (they are flagged ``cycle_met = False`` and carry a large ``e_l``), so no response is infinite.
+MIN_DISTANCE_SHARE = 0.01
+
+
+def engine_arrays(engine: EngineMap) -> EngineArrays:
+    p, w, t = best_efficiency_line(engine)
+    if p[0] != 0.0 or not np.allclose(np.diff(p), p[1]):
+        raise ValueError(f"engine {engine.name}: best-efficiency line must be on a uniform power grid from 0")
+    t = np.maximum.accumulate(t)
+    t[1:] = np.maximum(t[1:], t[:-1] + 1e-9)          # strictly increasing for the inverse lookup
+    f = np.ascontiguousarray
+    return EngineArrays(f(engine.speed_rad_s, float), f(engine.torque_nm, float), f(engine.max_torque_nm, float),
+                        f(engine.fuel_g_s, float), f(engine.hc_g_s, float), f(engine.co_g_s, float),
+                        f(engine.nox_g_s, float), f(p, float), f(w, float), f(t, float))
+
+
+def machine_arrays(machine: MachineMap) -> MachineArrays:
+    f = np.ascontiguousarray
+    return MachineArrays(f(machine.speed_rad_s, float), f(machine.torque_nm, float), f(machine.efficiency, float),
+                         f(machine.max_torque_nm, float))
+
+
+@dataclass(frozen=True)
+class RunOutput:
+    """Raw kernel output of one batch: accumulators (n, N_O), performance (n, 3), masses, traces."""
+
+    out: np.ndarray
+    perf: np.ndarray
+    mass_kg: np.ndarray
+    traces: np.ndarray | None
+
+    def frame(self) -> pd.DataFrame:
+        return pd.DataFrame(self.out, columns=list(OUT_NAMES))
+
+
+class Simulator:
+    """Simulate batches of designs (and the two baselines) on drive cycles."""
+
+    def __init__(self, lib: ComponentLibrary, params: Params):
+        self.lib, self.params = lib, params
+        self.space = params.design_space.space()
+        sim, base = params.sim, params.baseline
+        self.chassis_kg = conventional_chassis_kg(lib, base.conventional.test_mass_kg, base.conventional.p_eng_kw)
+        self._E_h, self._E_c = engine_arrays(lib.engine_hybrid), engine_arrays(lib.engine_conventional)
+        self._M, self._G = machine_arrays(lib.motor), machine_arrays(lib.generator)
+        b = lib.battery
+        self._B = BatteryArrays(*(np.ascontiguousarray(a, float) for a in (b.soc, b.ocv_v, b.r_dis_ohm, b.r_chg_ohm)))
+        self._th = thresholds(params.pms)
+        pms = params.pms
+        self._pc = PmsConfig(pms.engine_on_threshold, pms.engine_min_on_s, pms.engine_min_off_s,
+                             pms.engine_min_power_kw * 1e3, pms.charge_power_fraction, pms.soc_target, sim.soc_min,
+                             pms.soc_high.value)
+        self._cfg = {
+            "hybrid": self._config(lib.body_conventional, lib.wheel_conventional, lib.accessory_hybrid.electrical_w),
+            "prius": self._config(lib.body_prius, lib.wheel_prius, lib.accessory_hybrid.electrical_w),
+            "conventional": self._config(lib.body_conventional, lib.wheel_conventional,
+                                         lib.accessory_conventional.mechanical_w),
+        }
+        gb = lib.gearbox.loss_coefficients
+        e = lib.engine_conventional
+        self._conv = ConvDesign(base.conventional.p_eng_kw / e.peak_power_kw, lib.wheel_conventional.radius_m,
+                                lib.conventional_idle_rad_s, lib.conventional_launch_rad_s, e.max_speed_rad_s,
+                                lib.accessory_conventional.mechanical_w, *map(float, gb))
+        self._ratios = np.ascontiguousarray(base.conventional.gear_ratios, float)
+        self._upshift = np.ascontiguousarray(base.conventional.upshift_kmh, float)
+
+    @classmethod
+    def from_params(cls, params: Params, components_dir: str | Path = "data/components") -> Simulator:
+        return cls(ComponentLibrary.load(components_dir), params)
+
+    # ----------------------------------------------------------------------------- configuration
+    def _config(self, body, wheel, p_acc_w: float, dt: float = 1.0) -> DriveConfig:
+        sim, lib = self.params.sim, self.lib
+        ps, bat = lib.power_split, lib.battery
+        return DriveConfig(
+            dt=dt, mass_factor=sim.mass_factor, mu=sim.adhesion_coefficient, rho=body.air_density_kg_m3,
+            g=body.gravity_m_s2, cda=body.drag_coefficient * body.frontal_area_m2, crr=wheel.rolling_resistance,
+            r=wheel.radius_m, axle0_nm=wheel.axle_drag_nm_at_0kg, axle_per_kg_nm=wheel.axle_drag_nm_per_kg,
+            h_over_l=body.cg_height_m / body.wheelbase_m, f_front=body.front_weight_fraction,
+            soc_init=sim.soc_init, soc_min=sim.soc_min, soc_max=sim.soc_max, eta_pg=sim.planetary_efficiency,
+            eta_fd=sim.final_drive_efficiency, i_max_a=sim.pack_current_max_a, regen_frac=sim.regen_fraction_max,
+            regen_fade_mps=sim.regen_fade_kmh / 3.6, p_acc_w=float(p_acc_w),
+            lhv_j_per_g=lib.engine_hybrid.lhv_j_per_g, w_e_min=ps.engine_min_on_speed_rad_s,
+            w_e_max=min(ps.engine_max_speed_rad_s, lib.engine_hybrid.max_speed_rad_s),
+            w_m_max=min(ps.motor_max_speed_rad_s, lib.motor.max_speed_rad_s),
+            w_g_max=min(ps.generator_max_speed_rad_s, lib.generator.max_speed_rad_s),
+            cap_as=bat.capacity_ah * 3600.0, eta_c=bat.coulombic_efficiency, v_min_mod=bat.v_min, v_max_mod=bat.v_max,
+            w_idle=lib.conventional_idle_rad_s, w_launch=lib.conventional_launch_rad_s,
+        )
+
+    # ------------------------------------------------------------------------------- design rows
+    def mass_kg(self, X: np.ndarray) -> np.ndarray:
+        """Exact test mass of hybrid conversions (SPEC section 4 mass model), kg."""
+        X = self.space.check(X, integers=False)
+        return hybrid_masses(self.lib, self.chassis_kg, X[:, 0], X[:, 1], X[:, 2], X[:, 4]).test_mass_kg
+
+    def _rows(self, X: np.ndarray, vehicle: Vehicle) -> np.ndarray:
+        lib = self.lib
+        if vehicle == "conventional":
+            c = self.params.baseline.conventional
+            row = np.zeros((1, N_R))
+            row[0, 0] = c.p_eng_kw / lib.engine_conventional.peak_power_kw
+            row[0, 7] = c.test_mass_kg
+            return row
+        if vehicle == "prius":
+            p = self.params.baseline.prius
+            X = np.array([[p.p_eng_kw, p.p_mot_kw, p.p_gen_kw, p.i0, p.n_bat, p.n_r, p.n_s]], dtype=float)
+            mass = np.array([p.test_mass_kg])
+        elif vehicle == "hybrid":
+            X = self.space.check(X, what="designs")
+            mass = self.mass_kg(X)
+        else:
+            raise ValueError(f"vehicle: {vehicle!r} is not one of {', '.join(VEHICLES)}")
+        rows = np.empty((X.shape[0], N_R))
+        rows[:, 0] = X[:, 0] / lib.engine_hybrid.peak_power_kw
+        rows[:, 1] = X[:, 1] / lib.motor.peak_power_kw
+        rows[:, 2] = X[:, 2] / lib.generator.peak_power_kw
+        rows[:, 3:7] = X[:, 3:7]
+        rows[:, 7] = mass
+        return rows
+
+    def design_of(self, vehicle: Vehicle) -> dict[str, float]:
+        """The seven design variables of a baseline (NaN for the conventional car's hybrid-only ones)."""
+        if vehicle == "prius":
+            p = self.params.baseline.prius
+            return {v: float(getattr(p, v)) for v in DESIGN_VARS}
+        if vehicle == "conventional":
+            return {v: (self.params.baseline.conventional.p_eng_kw if v == "p_eng_kw" else np.nan) for v in DESIGN_VARS}
+        raise ValueError(f"vehicle: {vehicle!r} has no fixed design")
+
+    # ----------------------------------------------------------------------------------- running
+    def run_raw(self, X: np.ndarray | None, cycle: Cycle, vehicle: Vehicle = "hybrid", *,
+                record: bool = False, performance: bool = True) -> RunOutput:
+        """Kernel outputs for one batch (all designs of ``X``; traces for all if ``record``)."""
+        rows = self._rows(X if X is not None else np.empty((0, 7)), vehicle)
+        n = rows.shape[0]
+        cfg = self._cfg[vehicle]
+        if abs(cycle.dt_s - cfg.dt) > 1e-12:
+            cfg = cfg._replace(dt=cycle.dt_s)
+        out = np.zeros((n, N_O))
+        traces = np.zeros((n if record else 1, cycle.n_steps, N_T))
+        rec = np.arange(n) if record else np.full(n, -1)
+        v_ref = np.ascontiguousarray(cycle.speed_mps, float)
+        grade = np.ascontiguousarray(cycle.grade, float)
+        sin_g, cos_g = grade_trig(grade)
+        key_on = np.ascontiguousarray(cycle.key_on, bool)
+        if vehicle == "conventional":
+            drive_conventional(rows, cfg, self._ratios, self._upshift, self._conv, self._E_c, v_ref, grade, sin_g,
+                               cos_g, key_on, out, traces, rec)
+        else:
+            drive_hybrid(rows, cfg, self._th, self._pc, self._E_h, self._M, self._G, self._B, v_ref, grade, sin_g,
+                         cos_g, key_on, out, traces, rec)
+        perf = self.performance_rows(rows, vehicle) if performance else np.full((n, 3), np.nan)
+        return RunOutput(out, perf, rows[:, 7].copy(), traces if record else None)
+
+    def performance_rows(self, rows: np.ndarray, vehicle: Vehicle) -> np.ndarray:
+        sim = self.params.sim
+        kind = 1 if vehicle == "conventional" else 0
+        E = self._E_c if kind else self._E_h
+        return performance_batch(kind, rows, self._cfg[vehicle], self._ratios, self._conv, E, self._M, self._G,
+                                 self._B, sim.perf_dt_s, sim.perf_max_time_s)
+
+    def run(self, X: np.ndarray | None, cycle: Cycle, vehicle: Vehicle = "hybrid", *, batch_size: int = 1000,
+            progress: Callable[[int, int], None] | None = None) -> pd.DataFrame:
+        """Responses (``hevlib.design.RESPONSES`` columns), one row per design of ``X`` in order.
+
+        ``X``: (n, 7) in ``DESIGN_VARS`` order, checked against the design space (ignored for the two
+        baselines, which give one row). ``progress(n_done, n_total)`` is called after each batch.
+        """
+        if vehicle != "hybrid":
+            frames = [self.responses(self.run_raw(None, cycle, vehicle), cycle)]
+        else:
+            X = self.space.check(X, what="designs")
+            frames = []
+            for start in range(0, X.shape[0], max(int(batch_size), 1)):
+                frames.append(self.responses(self.run_raw(X[start:start + batch_size], cycle, vehicle), cycle))
+                if progress is not None:
+                    progress(min(start + batch_size, X.shape[0]), X.shape[0])
+        if not frames:
+            return pd.DataFrame({k: pd.Series(dtype=bool if k == "cycle_met" else float) for k in RESPONSES})
+        return pd.concat(frames, ignore_index=True)
+
+    def trace(self, X: np.ndarray | None, cycle: Cycle, vehicle: Vehicle = "hybrid") -> pd.DataFrame:
+        """Per-step traces (``TRACE_NAMES`` plus ``time_s``, ``design``) of a few designs."""
+        res = self.run_raw(X, cycle, vehicle, record=True, performance=False)
+        frames = []
+        for i, tr in enumerate(res.traces):
+            df = pd.DataFrame(tr, columns=list(TRACE_NAMES))
+            df.insert(0, "time_s", cycle.time_s)
+            df.insert(0, "design", i)
+            frames.append(df)
+        return pd.concat(frames, ignore_index=True)
+
+    # --------------------------------------------------------------------------------- responses
+    def responses(self, res: RunOutput, cycle: Cycle) -> pd.DataFrame:
+        """The eleven objectives (SPEC section 5) and the extra responses from raw kernel output."""
+        o = res.frame()
+        sim = self.params.sim
+        lib = self.lib
+        lhv = lib.engine_hybrid.lhv_j_per_g
+        rho_fuel = lib.engine_hybrid.fuel_density_g_per_l
+        dist_km = np.maximum(o["dist_m"].to_numpy(), MIN_DISTANCE_SHARE * cycle.distance_m) / 1e3
+        fuel_l = o["fuel_g"].to_numpy() / rho_fuel
+        e_fuel, e_batt = o["e_fuel_j"].to_numpy(), o["e_batt_j"].to_numpy()
+        # SOC correction (SAE J1711 spirit): net battery energy as the fuel the engine would have burnt
+        # to put it back through the generator, at this run's own mean engine and generator efficiency.
+        eta_eng = np.where(e_fuel > 0, o["e_eng_shaft_j"].to_numpy() / np.where(e_fuel > 0, e_fuel, 1.0),
+                           lib.engine_hybrid.max_efficiency())
+        gen_in = o["e_gen_mech_in_j"].to_numpy()
+        eta_gen = np.where(gen_in > 0, o["e_gen_elec_out_j"].to_numpy() / np.where(gen_in > 0, gen_in, 1.0), 0.9)
+        fuel_equiv_l = e_batt / (np.clip(eta_eng * eta_gen, 0.05, 1.0) * lhv) / rho_fuel
+        acc_req = o["acc_req_sum_mps2"].to_numpy()
+        in_energy = e_fuel + e_batt
+        r = pd.DataFrame({
+            "m_veh": res.mass_kg,
+            "fc": 100.0 * fuel_l / dist_km,
+            "accel_dev": 100.0 * o["acc_short_sum_mps2"].to_numpy() / np.where(acc_req > 0, acc_req, 1.0),
+            "hc": o["hc_g"].to_numpy() / dist_km,
+            "co": o["co_g"].to_numpy() / dist_km,
+            "nox": o["nox_g"].to_numpy() / dist_km,
+            "e_l": np.maximum(o["dist_ref_m"].to_numpy() - o["dist_m"].to_numpy(), 0.0) / 1e3,
+            "speed_dev": 3.6 * o["speed_err_sum_mps"].to_numpy() / np.maximum(o["n_steps"].to_numpy(), 1.0),
+            "diff_soc": sim.soc_init - o["soc_end"].to_numpy(),
+            "v_max": res.perf[:, 2],
+            "f_max": res.perf[:, 0],
+            "fc_soc_corrected": 100.0 * (fuel_l + fuel_equiv_l) / dist_km,
+            "eta_drivetrain": o["e_traction_j"].to_numpy() / np.where(in_energy > 0, in_energy, np.nan),
+            "t_0_100_s": res.perf[:, 1],
+            "cycle_met": o["max_speed_err_mps"].to_numpy() * 3.6 <= sim.cycle_met_tolerance_kmh,
+        })
+        bad = r[list(OBJECTIVES)].isna().any(axis=1)
+        if bad.any():
+            i = int(np.argmax(bad.to_numpy()))
+            col = r.columns[r.iloc[i].isna()][0]
+            raise FloatingPointError(f"simulation produced NaN for {col} (design row {i}, cycle {cycle.name})")
+        return r
+
+
+def energy_balance(res: RunOutput) -> pd.DataFrame:
+    """Sources, sinks and the residual of the energy balance per design.
+
+    ``residual_share`` and ``mismatch_share`` are relative to the energy put in, fuel plus the
+    magnitude of the net battery energy (the fuel energy whenever the engine runs; a design whose
+    engine never starts is judged on its battery energy).
+    """
+    o = res.frame()
+    sources = o["e_fuel_j"] + o["e_batt_j"]
+    sinks = o[list(BALANCE_SINKS)].sum(axis=1)
+    scale = (o["e_fuel_j"] + o["e_batt_j"].abs()).clip(lower=1.0)
+    out = o[["e_fuel_j", "e_batt_j", *BALANCE_SINKS]].copy()
+    out["residual_j"] = sources - sinks
+    out["residual_share"] = out["residual_j"].abs() / scale
+    out["mismatch_share"] = o["e_mismatch_j"].abs() / scale
+    return out
+
+
+def with_inputs(X: np.ndarray, responses: pd.DataFrame) -> pd.DataFrame:
+    """The seven design-variable columns followed by the responses."""
+    return pd.concat([pd.DataFrame(np.asarray(X, float), columns=list(DESIGN_VARS)), responses], axis=1)
+
+
+__all__ = ["Simulator", "RunOutput", "energy_balance", "with_inputs", "VEHICLES", "MODEL_VERSION"]

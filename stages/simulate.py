@@ -1,0 +1,54 @@
+"""``hev simulate``: check designs by hand, or re-simulate them, on any cycle."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import typer
+
+from hevlib.cycles import Cycle
+from hevlib.design import design_matrix
+from hevlib.io import read_table, write_table
+from hevlib.simulate import VEHICLES, Simulator, with_inputs
+from stages.cli import app
+from stages.common import PARAMS_OPTION, params_from, stage
+
+CYCLES_DIR = Path("data/cycles")
+
+
+@app.command("simulate")
+@stage
+def simulate(
+    designs: Path = typer.Option(None, "--designs", help="CSV or Parquet with the seven design-variable columns"),
+    cycle: str = typer.Option(..., "--cycle", help="cycle name (data/cycles/<name>.parquet)"),
+    grade: float = typer.Option(None, "--grade", help="road grade in percent; overrides the cycle's own grade"),
+    vehicle: str = typer.Option("hybrid", "--vehicle", help="hybrid | conventional | prius"),
+    out: Path = typer.Option(..., "--out", help="output table (.csv or .parquet)"),
+    params: str = PARAMS_OPTION,
+) -> None:
+    """Simulate designs (or a baseline) and write the inputs plus every response, one row per design."""
+    p = params_from(params)
+    if vehicle not in VEHICLES:
+        raise ValueError(f"--vehicle: {vehicle!r} is not one of {', '.join(VEHICLES)}")
+    if cycle not in p.cycles.cycles:
+        raise ValueError(f"--cycle: {cycle!r} is not one of {', '.join(p.cycles.cycles)}")
+    cyc = Cycle.from_parquet(CYCLES_DIR / f"{cycle}.parquet", cycle)
+    if grade is not None:
+        if not -30.0 <= grade <= 30.0:
+            raise ValueError(f"--grade: {grade:g} % is outside [-30, 30] %")
+        cyc = cyc.with_grade(grade / 100.0)
+    sim = Simulator.from_params(p)
+    if vehicle == "hybrid":
+        if designs is None:
+            raise ValueError("--designs: a design table is required for --vehicle hybrid")
+        X = design_matrix(read_table(designs), what=str(designs))
+        table = with_inputs(X, sim.run(X, cyc, "hybrid", batch_size=p.doe.batch_size))
+    else:
+        X = np.array([list(sim.design_of(vehicle).values())])
+        table = with_inputs(X, sim.run(None, cyc, vehicle))
+    table.insert(0, "vehicle", vehicle)
+    table["cycle"] = cycle
+    table["grade"] = float(np.mean(cyc.grade))
+    write_table(out, pd.DataFrame(table))

@@ -1,0 +1,41 @@
+"""Shared fixtures: the repository root, the default params, the study's component library."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from hevlib.components import ComponentLibrary
+from hevlib.params import Params, load_params
+from hevlib.scaling import study_library
+
+ROOT = Path(__file__).resolve().parents[1]
+RAW = ROOT / "data" / "raw"
+
+
+@pytest.fixture(scope="session")
+def root() -> Path:
+    return ROOT
+
+
+@pytest.fixture(scope="session")
+def params() -> Params:
+    """The repository's params.yaml, with data paths made absolute (tests may run from any folder)."""
+    p = load_params(ROOT / "params.yaml")
+    return p.model_copy(update={
+        "cycles": p.cycles.model_copy(update={"raw_dir": str(ROOT / p.cycles.raw_dir)}),
+        "baseline": p.baseline.model_copy(update={"components_dir": str(ROOT / p.baseline.components_dir)}),
+    })
+
+
+@pytest.fixture(scope="session")
+def lib(params: Params) -> ComponentLibrary:
+    """The library the ``components`` stage builds (ADVISOR data, Table 1 bodies, derived glider)."""
+    return study_library(params.baseline, RAW / "paper")
+
+
+@pytest.fixture(scope="session")
+def raw() -> Path:
+    """``data/raw`` of this checkout (git-tracked inputs)."""
+    return RAW

@@ -1,0 +1,161 @@
+"""Drive cycles: validation of raw traces, resampling, grades, key-off, Parquet round trip, distances."""
+
+from __future__ import annotations
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+import yaml
+
+from hevlib.cycles import (
+    CYCLE_SCHEMA,
+    Cycle,
+    CycleError,
+    build_cycles,
+    load_cycle,
+    read_raw_cycle,
+    resample,
+    write_cycles,
+)
+
+
+def _csv(tmp_path, text: str, name: str = "CYC_BAD.csv"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("text, match", [
+    ("time_s,speed_kmh\n0,0\n2,10\n1,20\n3,0\n", r"time is not strictly increasing at line 4 \(t=1 s\)"),
+    ("time_s,speed_kmh\n0,0\n1,10\n1,20\n2,0\n", r"time is not strictly increasing at line 4"),
+    ("time_s,speed_kmh\n0,0\n1,-5\n2,0\n", r"negative speed at line 3 \(t=1 s\)"),
+    ("time_s,speed_kmh\n0,0\n1,\n2,0\n", r"speed is missing, NaN or infinite at line 3"),
+    ("time_s,speed_kmh\n0,0\n1,nan\n2,0\n", r"speed is missing, NaN or infinite at line 3"),
+    ("time_s,speed_kmh\n0,0\n,1\n2,0\n", r"time_s is missing, NaN or infinite at line 3"),
+    ("time_s\n0\n1\n", r"missing speed column, expected one of speed_kmh, speed_mps, speed_mph"),
+    ("t,speed_kmh\n0,0\n1,1\n", r"missing column 'time_s'"),
+    ("time_s,speed_fps\n0,0\n1,1\n", r"unknown unit in 'speed_fps'"),
+    ("time_s,speed_kmh\n0,0\n", r"needs at least two points"),
+    ("", r"not a readable CSV"),
+])
+def test_malformed_cycle_gives_one_line_error_naming_file(tmp_path, text, match):
+    path = _csv(tmp_path, text)
+    with pytest.raises(CycleError, match=match) as info:
+        read_raw_cycle(path)
+    msg = str(info.value)
+    assert msg.startswith(str(path)) and "\n" not in msg
+
+
+def test_missing_cycle_file_is_named(tmp_path):
+    with pytest.raises(FileNotFoundError, match="CYC_NONE.csv: cycle file missing"):
+        load_cycle(tmp_path / "CYC_NONE.csv", name="none")
+
+
+def test_units_are_converted_to_mps(tmp_path):
+    for col, factor in (("speed_kmh", 1 / 3.6), ("speed_mph", 0.44704), ("speed_mps", 1.0)):
+        path = _csv(tmp_path, f"time_s,{col}\n0,0\n1,10\n2,20\n", name=f"c_{col}.csv")
+        _, v = read_raw_cycle(path)
+        np.testing.assert_allclose(v, np.array([0, 10, 20]) * factor)
+
+
+def test_resampling_a_non_uniform_trace(tmp_path):
+    path = _csv(tmp_path, "time_s,speed_mps\n10,0\n10.5,1\n12,4\n13.5,1\n", name="c.csv")
+    cyc = load_cycle(path, name="c", step_s=1.0, grade=0.05)
+    np.testing.assert_allclose(cyc.time_s, [0, 1, 2, 3])                 # starts at 0, stops before 13.5 s
+    np.testing.assert_allclose(cyc.speed_mps, [0, 2.0, 4.0, 2.0])        # linear between raw points
+    np.testing.assert_allclose(cyc.grade, 0.05)
+    fine = load_cycle(path, name="c", step_s=0.5)                       # every raw point on the grid
+    assert fine.n_steps == 8 and fine.dt_s == 0.5
+    raw_t, raw_v = read_raw_cycle(path)
+    assert fine.distance_m == pytest.approx(np.trapezoid(raw_v, raw_t), rel=1e-12)
+
+
+def test_resample_rejects_bad_step():
+    t, v = np.array([0.0, 1.0, 2.0]), np.array([0.0, 1.0, 0.0])
+    with pytest.raises(CycleError, match="step_s"):
+        resample(t, v, 0.0)
+    with pytest.raises(CycleError, match="fewer than two points"):
+        resample(t, v, 5.0)
+
+
+def test_cycle_object_checks_its_invariants():
+    t = np.arange(4.0)
+    with pytest.raises(CycleError, match="lengths differ"):
+        Cycle("x", t, np.zeros(4), np.zeros(3))
+    with pytest.raises(CycleError, match="not uniform"):
+        Cycle("x", np.array([0, 1, 3, 4.0]), np.zeros(4), np.zeros(4))
+    with pytest.raises(CycleError, match="grade must be finite"):
+        Cycle("x", t, np.zeros(4), np.full(4, 2.0))
+    with pytest.raises(CycleError, match="negative speed at index 2"):
+        Cycle("x", t, np.array([0, 1, -1, 0.0]), np.zeros(4))
+    cyc = Cycle("x", t, np.array([0, 1, 2, 0.0]), np.zeros(4))
+    with pytest.raises(ValueError):
+        cyc.speed_mps[0] = 5.0                                             # immutable arrays
+
+
+@pytest.fixture(scope="module")
+def cycles(params):
+    return build_cycles(params.cycles)
+
+
+def test_cycle_figures_match_the_source_metadata(cycles, params, root):
+    meta = yaml.safe_load((root / "data/raw/cycles/cycles.yaml").read_text())["cycles"]
+    by_file = {m["file"]: m for m in meta.values()}
+    assert set(cycles) == {"udds", "ftp", "hwfet", "us06", "nedc"}
+    for name, cyc in cycles.items():
+        m = by_file[params.cycles.cycles[name].file]
+        assert cyc.dt_s == 1.0 and cyc.n_steps == m["points"]
+        assert cyc.duration_s == m["duration_s"]
+        assert cyc.distance_m / 1e3 == pytest.approx(m["distance_km_trapezoidal"], rel=1e-9)
+        assert cyc.speed_mps.max() * 3.6 == pytest.approx(m["max_speed_km_per_h"], rel=1e-9)
+    udds, ftp = cycles["udds"].summary(), cycles["ftp"].summary()
+    assert (udds["duration_s"], round(udds["distance_km"], 3)) == (1369.0, 11.990)
+    assert (ftp["duration_s"], round(ftp["distance_km"], 3)) == (2477.0, 17.769)
+    assert udds["v_mean_kmh"] == pytest.approx(11.990238656 / 1369 * 3600, rel=1e-6)
+
+
+def test_grades_come_from_params(cycles):
+    np.testing.assert_array_equal(cycles["udds"].grade, 0.2)          # sizing cycle: 20 % grade
+    for name in ("ftp", "hwfet", "us06", "nedc"):
+        np.testing.assert_array_equal(cycles[name].grade, 0.0)
+
+
+def test_ftp_soak_is_key_off(cycles):
+    ftp = cycles["ftp"]
+    off = ftp.time_s[~ftp.key_on]
+    assert off[0] == 0.0 and off[1] == 1373.0 and off[-1] == 1972.0 and len(off) == 601
+    assert np.all(ftp.speed_mps[~ftp.key_on] == 0.0)                   # never moving with the key off
+    assert cycles["udds"].key_on.all()
+    # FTP = UDDS, soak, first 505 s of UDDS again
+    np.testing.assert_array_equal(ftp.speed_mps[:1370], cycles["udds"].speed_mps)
+    np.testing.assert_array_equal(ftp.speed_mps[1973:], cycles["udds"].speed_mps[1:506])
+
+
+def test_with_grade_keeps_trace_and_key(cycles):
+    ftp = cycles["ftp"]
+    graded = ftp.with_grade(0.1)
+    np.testing.assert_array_equal(graded.speed_mps, ftp.speed_mps)
+    np.testing.assert_array_equal(graded.key_on, ftp.key_on)
+    np.testing.assert_array_equal(graded.grade, 0.1)
+
+
+def test_parquet_round_trip_with_explicit_schema(cycles, tmp_path):
+    write_cycles(cycles, tmp_path / "cycles", tmp_path / "cycles.json")
+    (tmp_path / "cycles" / "stale.parquet").write_bytes(b"")
+    write_cycles({"ftp": cycles["ftp"]}, tmp_path / "cycles", tmp_path / "cycles.json")
+    assert sorted(p.name for p in (tmp_path / "cycles").iterdir()) == ["ftp.parquet"]  # stale files removed
+    path = tmp_path / "cycles" / "ftp.parquet"
+    assert pq.read_schema(path).remove_metadata().equals(CYCLE_SCHEMA)
+    back = Cycle.from_parquet(path)
+    for key in ("time_s", "speed_mps", "grade", "key_on"):
+        np.testing.assert_array_equal(getattr(back, key), getattr(cycles["ftp"], key))
+    assert back.name == "ftp"
+
+
+def test_from_parquet_errors_name_the_file(tmp_path):
+    with pytest.raises(FileNotFoundError, match="run `hev cycles`"):
+        Cycle.from_parquet(tmp_path / "none.parquet")
+    bad = tmp_path / "bad.parquet"
+    bad.write_text("not parquet")
+    with pytest.raises(CycleError, match="bad.parquet: not a readable Parquet file"):
+        Cycle.from_parquet(bad)

@@ -1,0 +1,115 @@
+"""The params contract: a bad key, type or value stops a stage with one line naming the key, no output."""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from hevlib.params import ParamsError, load_params, parse_params
+from stages.cli import app
+
+
+@pytest.fixture(scope="module")
+def raw_params(root) -> dict:
+    return yaml.safe_load((root / "params.yaml").read_text())
+
+
+def _with(raw_params: dict, path: str, value) -> dict:
+    """A copy of the params with the dotted key ``path`` set to ``value``."""
+    data = copy.deepcopy(raw_params)
+    *parents, leaf = path.split(".")
+    node = data
+    for key in parents:
+        node = node[key]
+    node[leaf] = value
+    return data
+
+
+def test_repository_params_are_valid(params):
+    assert params.cycles.sizing == "udds" and params.cycles.validation == "ftp"
+    assert params.cycles.cycles["udds"].grade_pct == 20.0 and params.cycles.cycles["ftp"].grade_pct == 0.0
+    conv = params.baseline.conventional
+    assert conv.p_eng_kw == 70.0 and conv.test_mass_kg == 1195.0
+    assert params.baseline.prius.n_bat == 25 and params.baseline.battery == "li_ion"
+
+
+BAD = [
+    ("cycles.step_size", 1.0, "cycles.step_size: unknown key"),
+    ("baseline.prius.mass", 1.0, "baseline.prius.mass: unknown key"),
+    ("cycles.step_s", "fast", "cycles.step_s: Input should be a valid number"),
+    ("baseline.prius.n_bat", 2.5, "baseline.prius.n_bat: Input should be a valid integer"),
+    ("cycles.step_s", 0.0, "cycles.step_s: Input should be greater than 0"),
+    ("cycles.cycles.udds.grade_pct", 45.0,
+     "cycles.cycles.udds.grade_pct: Input should be less than or equal to 30"),
+    ("baseline.conventional.test_mass_kg", -5,
+     "baseline.conventional.test_mass_kg: Input should be greater than 500"),
+    ("baseline.battery", "lead_acid", "baseline.battery: Input should be 'li_ion' or 'nimh'"),
+    ("cycles.sizing", "wltp", "cycles.sizing: 'wltp' is not one of cycles.cycles"),
+    ("baseline.prius.n_s", 80, "baseline.prius.n_s: 80 sun teeth must be fewer than n_r = 78"),
+    ("cycles.cycles.udds.file", "udds.txt", "cycles.cycles.udds.file: String should match pattern"),
+    ("baseline.conventional.upshift_kmh", [40.0, 24.0, 64.0, 75.0],
+     "baseline.conventional.upshift_kmh: speeds"),
+]
+
+
+@pytest.mark.parametrize("key, value, message", BAD)
+def test_bad_params_name_the_key_in_one_line(raw_params, key, value, message):
+    with pytest.raises(ParamsError) as info:
+        parse_params(_with(raw_params, key, value), "bad.yaml")
+    msg = str(info.value)
+    assert msg.startswith(f"bad.yaml: {message}"), msg
+    assert "\n" not in msg
+
+
+def test_bad_cycle_name_and_file_errors(raw_params, tmp_path):
+    data = copy.deepcopy(raw_params)
+    data["cycles"]["cycles"]["Bad-Name"] = {"file": "CYC_UDDS.csv", "grade_pct": 0.0}
+    with pytest.raises(ParamsError, match=r"cycles\.cycles\.Bad-Name: invalid key name"):
+        parse_params(data)
+    with pytest.raises(ParamsError, match="no such params file"):
+        load_params(tmp_path / "missing.yaml")
+    (tmp_path / "broken.yaml").write_text("cycles: [unclosed\n")
+    with pytest.raises(ParamsError, match="broken.yaml: not valid YAML"):
+        load_params(tmp_path / "broken.yaml")
+    (tmp_path / "list.yaml").write_text("- 1\n- 2\n")
+    with pytest.raises(ParamsError, match="top level must be a mapping"):
+        load_params(tmp_path / "list.yaml")
+
+
+@pytest.mark.parametrize("stage", ["cycles", "components"])
+@pytest.mark.parametrize("key, value, expect", [
+    ("cycles.typo", 1, "cycles.typo: unknown key"),
+    ("baseline.conventional.p_eng_kw", "seventy",
+     "baseline.conventional.p_eng_kw: Input should be a valid number"),
+    ("cycles.step_s", 60.0, "cycles.step_s: Input should be less than or equal to 10"),
+])
+def test_stage_stops_on_bad_params_and_writes_nothing(raw_params, tmp_path, monkeypatch, stage, key, value,
+                                                      expect):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "bad.yaml").write_text(yaml.safe_dump(_with(raw_params, key, value)))
+    result = CliRunner().invoke(app, [stage, "--params", "bad.yaml"])
+    assert result.exit_code == 1
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: bad.yaml: {expect}"), lines
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.yaml"]      # no data/, no reports/
+
+
+def test_stage_stops_on_missing_inputs_and_writes_nothing(raw_params, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "params.yaml").write_text(yaml.safe_dump(raw_params))
+    result = CliRunner().invoke(app, ["cycles"])
+    assert result.exit_code == 1
+    assert result.stderr.strip() == "error: data/raw/cycles: cycle directory missing (params cycles.raw_dir)"
+    result = CliRunner().invoke(app, ["components"])
+    assert result.exit_code == 1
+    assert "table1_baseline_vehicles.csv: no such file" in result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["params.yaml"]
+
+
+def test_hev_lists_the_stages():
+    result = CliRunner().invoke(app, ["--help"])
+    assert result.exit_code == 0
+    assert "cycles" in result.stdout and "components" in result.stdout

@@ -1,0 +1,280 @@
+"""The vehicle simulator: energy balance, kinematics, limits, driving, baselines, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hevlib.cycles import Cycle, build_cycles
+from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
+from hevlib.doe import lhs_designs
+from hevlib.powertrain.battery import current_for_power, power_limits
+from hevlib.powertrain.layout import OUT_NAMES
+from hevlib.powertrain.planetary import carrier_speed, carrier_speed_window, split_torque, sun_speed
+from hevlib.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_total
+from hevlib.simulate import Simulator, energy_balance
+
+PRIUS = [43.0, 31.0, 15.0, 3.93, 25, 78, 30]
+
+
+@pytest.fixture(scope="module")
+def sim(lib, params) -> Simulator:
+    return Simulator(lib, params)
+
+
+@pytest.fixture(scope="module")
+def cycles(params) -> dict[str, Cycle]:
+    return build_cycles(params.cycles)
+
+
+@pytest.fixture(scope="module")
+def designs(params) -> np.ndarray:
+    """40 random designs over the whole design space (seeded), plus the corners that stress limits."""
+    space = params.design_space.space()
+    X = lhs_designs(space, 40, seed=11)
+    corners = np.array([[25, 20, 5, 2.0, 10, 90, 18], [70, 60, 30, 4.5, 60, 50, 40], [25, 60, 5, 4.5, 10, 90, 40],
+                        [70, 20, 30, 2.0, 60, 50, 18]], dtype=float)
+    return np.vstack([X, corners])
+
+
+@pytest.fixture(scope="module")
+def runs(sim, cycles, designs) -> dict:
+    """Raw kernel output of the random designs on the sizing cycle (UDDS 20 %) and on FTP."""
+    return {name: sim.run_raw(designs, cycles[name]) for name in ("udds", "ftp")}
+
+
+# --------------------------------------------------------------------------------- energy balance
+@pytest.mark.parametrize("cycle", ["udds", "ftp"])
+def test_energy_balance_closes_for_every_design(runs, cycle):
+    eb = energy_balance(runs[cycle])
+    # fuel + net battery = every loss + accessories + brakes + road + grade + kinetic energy, to 0.5 % of fuel
+    assert (eb["residual_share"] < 0.005).all(), eb["residual_share"].max()
+    # ... and the only term that is not an identity (force-limited steps' fixed point) is negligible
+    assert (eb["mismatch_share"] < 1e-3).all(), eb["mismatch_share"].max()
+    # every loss term is a loss
+    for key in ("e_loss_eng_j", "e_loss_mot_j", "e_loss_gen_j", "e_loss_pg_j", "e_loss_fd_j", "e_loss_batt_j",
+                "e_brake_j", "e_road_j"):
+        assert (eb[key] >= -1e-6).all(), key
+
+
+def test_energy_balance_sees_a_broken_term(runs):
+    """The check can fail: dropping one sink (the road load) leaves a residual far above the bar."""
+    o = runs["udds"].frame()
+    sinks = o[[k for k in ("e_loss_eng_j", "e_loss_mot_j", "e_loss_gen_j", "e_loss_pg_j", "e_loss_fd_j",
+                           "e_loss_batt_j", "e_acc_j", "e_brake_j", "e_grade_j", "e_kin_end_j")]].sum(axis=1)
+    share = (o["e_fuel_j"] + o["e_batt_j"] - sinks).abs() / (o["e_fuel_j"] + o["e_batt_j"].abs())
+    moved = o["dist_m"] > 0.2 * o["dist_ref_m"]
+    assert moved.sum() >= 10 and (share[moved] > 0.005).all()
+
+
+def test_conventional_and_prius_balance_on_every_cycle(sim, cycles):
+    for cyc in cycles.values():
+        for vehicle in ("prius", "conventional"):
+            eb = energy_balance(sim.run_raw(None, cyc, vehicle)).iloc[0]
+            assert eb["residual_share"] < 1e-9, (vehicle, cyc.name)
+
+
+# ------------------------------------------------------------------------------ kinematics, limits
+def test_planetary_kinematics_and_torque_split():
+    n_r, n_s = 78.0, 30.0
+    w_c, w_r = 250.0, 300.0
+    w_s = sun_speed(w_c, w_r, n_r, n_s)
+    assert w_r * n_r + w_s * n_s == pytest.approx(w_c * (n_r + n_s))           # Willis
+    assert carrier_speed(w_r, w_s, n_r, n_s) == pytest.approx(w_c)
+    lo, hi = carrier_speed_window(w_r, n_r, n_s, 500.0)
+    assert sun_speed(lo, w_r, n_r, n_s) == pytest.approx(-500.0)
+    assert sun_speed(hi, w_r, n_r, n_s) == pytest.approx(500.0)
+    t_ring, t_sun = split_torque(100.0, n_r, n_s)
+    assert t_ring + t_sun == pytest.approx(100.0)
+    assert t_ring / t_sun == pytest.approx(n_r / n_s)
+    # power is conserved through the lossless set
+    assert 100.0 * w_c == pytest.approx(t_ring * w_r + t_sun * w_s)
+
+
+def test_no_limit_is_ever_exceeded(runs):
+    for name, raw in runs.items():
+        o = raw.frame()
+        assert (o["limit_violations"] == 0).all(), name
+        assert (o["soc_min_seen"] >= 0.4 - 1e-9).all() and (o["soc_max_seen"] <= 0.8 + 1e-9).all(), name
+
+
+def test_traces_obey_willis_torque_split_and_limits(sim, cycles, designs, lib, params):
+    X = designs[[0, 7, 40, 42]]
+    tr = sim.trace(X, cycles["udds"])
+    ps = lib.power_split
+    for i, x in enumerate(X):
+        d = tr[tr["design"] == i]
+        n_r, n_s = x[5], x[6]
+        on = d["eng_on"] > 0.5
+        # Willis on every step (engine stopped: the sun turns at -k w_ring)
+        lhs = d["w_mot_rad_s"] * n_r + d["w_gen_rad_s"] * n_s
+        assert np.allclose(lhs, d["w_eng_rad_s"] * (n_r + n_s), atol=1e-6)
+        # generator reacts the engine torque in the ratio of the teeth
+        assert np.allclose(d.loc[on, "t_gen_nm"], -d.loc[on, "t_eng_nm"] * n_s / (n_r + n_s), atol=1e-9)
+        assert (d.loc[on, "w_eng_rad_s"] <= ps.engine_max_speed_rad_s * (1 + 1e-9)).all()
+        assert (d.loc[on, "w_eng_rad_s"] >= ps.engine_min_on_speed_rad_s * (1 - 1e-9)).all()
+        assert (d["w_gen_rad_s"].abs() <= ps.generator_max_speed_rad_s * (1 + 1e-9)).all()
+        assert (d["w_mot_rad_s"] <= ps.motor_max_speed_rad_s * (1 + 1e-9)).all()
+        assert (d.loc[on, "t_eng_nm"] <= d.loc[on, "t_eng_max_nm"] * (1 + 1e-9)).all()
+        assert (d["t_mot_nm"].abs() <= d["t_mot_max_nm"] * (1 + 1e-9)).all()
+        assert (d["t_gen_nm"].abs() <= d["t_gen_max_nm"] * (1 + 1e-9)).all()
+        assert d["soc"].between(params.sim.soc_min - 1e-9, params.sim.soc_max + 1e-9).all()
+        # motor speed is set by the vehicle: ring = wheel speed x i0 (at the step's mean speed)
+        v_mean = 0.5 * (d["v_mps"].to_numpy()[1:] + d["v_mps"].to_numpy()[:-1])
+        moving = v_mean > 0
+        w_ring = d["w_mot_rad_s"].to_numpy()[1:]
+        # (force-limited steps converge their speed to 1e-5 m/s)
+        assert np.allclose(w_ring[moving], v_mean[moving] / lib.wheel_conventional.radius_m * x[3], atol=1e-3)
+
+
+def test_conventional_gear_kinematics_and_idle(sim, cycles, lib, params):
+    tr = sim.trace(None, cycles["ftp"], "conventional")
+    ratios = np.array(params.baseline.conventional.gear_ratios)
+    engaged = tr["gear"] > 0
+    v_mean = 0.5 * (tr["v_mps"].to_numpy() + np.r_[0.0, tr["v_mps"].to_numpy()[:-1]])
+    w_in = v_mean[engaged] / lib.wheel_conventional.radius_m * ratios[tr.loc[engaged, "gear"].astype(int) - 1]
+    w_e = tr.loc[engaged, "w_eng_rad_s"].to_numpy()
+    slipping = w_in < lib.conventional_launch_rad_s
+    assert np.allclose(w_e[~slipping], w_in[~slipping], rtol=1e-9)          # clutch closed: rigid
+    assert np.allclose(w_e[slipping], lib.conventional_launch_rad_s)        # clutch slipping at launch speed
+    # standstill with the key on: idle fuel; key off (the FTP soak): none
+    key_on = cycles["ftp"].key_on
+    stopped = (tr["v_mps"] == 0) & (tr["v_ref_mps"] == 0)
+    idle = stopped & np.r_[True, key_on[:-1]]
+    soak = stopped & ~np.r_[True, key_on[:-1]]
+    assert (tr.loc[idle.to_numpy()[1:].nonzero()[0] + 1, "fuel_g_s"] > 0.05).all()
+    assert soak.sum() > 500 and (tr.loc[soak, "fuel_g_s"] == 0).all()
+    # gears follow the speed schedule (24/40/64/75 km/h) when the car keeps up with the cycle
+    v_kmh = np.r_[0.0, tr["v_mps"].to_numpy()[:-1]] * 3.6
+    sched = 1 + np.searchsorted(params.baseline.conventional.upshift_kmh, v_kmh[engaged], side="right")
+    assert np.mean(sched == tr.loc[engaged, "gear"].to_numpy()) > 0.99
+
+
+def test_battery_rint_model_round_trip_and_limits():
+    voc, r_d, r_c = 270.0, 0.45, 0.43
+    for p in (-20e3, -1e3, 0.0, 5e3, 30e3):
+        i = current_for_power(p, voc, r_d, r_c)
+        r = r_d if i >= 0 else r_c
+        assert voc * i - r * i * i == pytest.approx(p, abs=1e-6)
+    p_dis, p_chg = power_limits(voc, r_d, r_c, 150.0, 292.5, 200.0, 0.6, 0.4, 0.8, 7.4 * 3600, 0.99, 1.0)
+    i_dis = current_for_power(p_dis, voc, r_d, r_c)
+    i_chg = current_for_power(-p_chg, voc, r_d, r_c)
+    assert i_dis <= 200.0 + 1e-9 and voc - r_d * i_dis >= 150.0 - 1e-9
+    assert -i_chg <= 200.0 + 1e-9 and voc - r_c * i_chg <= 292.5 + 1e-9
+    # at the bottom of the SOC window nothing more may be drawn
+    assert power_limits(voc, r_d, r_c, 150.0, 292.5, 200.0, 0.4, 0.4, 0.8, 7.4 * 3600, 0.99, 1.0)[0] == 0.0
+
+
+def test_adhesion_and_force_speed_solution():
+    ch = Chassis(1200.0, 1260.0, 0.387, 0.009, 0.282, 6.4, 0.16, 0.55, 0.9, 1.2, 9.81)
+    f = adhesion_limit(0.0, 1.0, 0.0, ch)
+    a = f / ch.m_eff
+    # at that force the front load (with the load transfer of that acceleration) is exactly mu times it
+    n_front = ch.m * ch.g * ch.f_front - ch.m * a * ch.h_over_l
+    assert f == pytest.approx(ch.mu * n_front, rel=1e-12)
+    v = mean_speed_for_force(10.0, 2000.0, 0.0, 1.0, 1.0, ch)
+    assert 2000.0 - road_total(v, 0.0, 1.0, ch) == pytest.approx(2 * ch.m_eff * (v - 10.0), rel=1e-9)
+    # too little force on a 20 % grade from standstill: the car stays put, it does not roll back
+    s, c = np.sin(np.arctan(0.2)), np.cos(np.arctan(0.2))
+    assert mean_speed_for_force(0.0, 1000.0, s, c, 1.0, ch) == 0.0
+
+
+# ------------------------------------------------------------------------------------ driving
+def test_weak_designs_fall_behind_on_the_grade_strong_ones_follow_flat(sim, cycles, params):
+    weak = np.array([[25, 20, 5, 2.0, 10, 78, 30]], dtype=float)
+    strong = np.array([[70, 60, 30, 3.93, 60, 78, 30]], dtype=float)
+    graded = sim.run(np.vstack([weak, strong]), cycles["udds"])
+    assert graded.loc[0, "e_l"] > 1.0 and not graded.loc[0, "cycle_met"]
+    assert graded.loc[0, "speed_dev"] > graded.loc[1, "speed_dev"]
+    assert graded.loc[0, "e_l"] > graded.loc[1, "e_l"]
+    flat = sim.run(strong, cycles["ftp"])
+    assert flat.loc[0, "cycle_met"] and flat.loc[0, "e_l"] < 1e-3 and flat.loc[0, "accel_dev"] < 1e-6
+    # the distance driven plus the distance failed is the cycle distance
+    assert graded.loc[0, "e_l"] < cycles["udds"].distance_m / 1e3
+
+
+def test_batch_is_row_independent_and_ordered(sim, cycles, designs):
+    full = sim.run(designs[:12], cycles["udds"], batch_size=5)
+    single = pd.concat([sim.run(designs[[i]], cycles["udds"]) for i in (0, 6, 11)], ignore_index=True)
+    pd.testing.assert_frame_equal(full.iloc[[0, 6, 11]].reset_index(drop=True), single)
+
+
+def test_responses_are_finite_and_named(sim, cycles, designs):
+    r = sim.run(designs, cycles["udds"])
+    assert list(r.columns) == list(RESPONSES)
+    assert np.isfinite(r[list(OBJECTIVES)].to_numpy()).all()
+    assert r["cycle_met"].dtype == bool
+    assert (r["fc"] >= 0).all() and (r["e_l"] >= 0).all() and r["accel_dev"].between(0, 100).all()
+
+
+def test_mass_model_matches_components(sim, lib):
+    from hevlib.scaling import hybrid_masses
+    X = np.array([PRIUS, [50, 50, 25, 3.93, 40, 78, 30]], dtype=float)
+    m = hybrid_masses(lib, sim.chassis_kg, X[:, 0], X[:, 1], X[:, 2], X[:, 4]).test_mass_kg
+    assert np.allclose(sim.mass_kg(X), m)
+    assert sim.mass_kg(X[[1]])[0] == pytest.approx(1200.4, abs=0.5)     # L27 design 1 (components.json)
+
+
+# ------------------------------------------------------------------------------- performance
+def test_performance_limits(sim, cycles, designs, lib, params):
+    r = sim.run(designs, cycles["ftp"])
+    r_w = lib.wheel_conventional.radius_m
+    ps = lib.power_split
+    for x, vmax in zip(designs, r["v_max"], strict=True):
+        w_ring_max = min(ps.motor_max_speed_rad_s, ((x[5] + x[6]) * ps.engine_max_speed_rad_s
+                                                   + x[6] * ps.generator_max_speed_rad_s) / x[5])
+        assert vmax <= w_ring_max * r_w / x[3] * 3.6 * (1 + 1e-9)
+    body = lib.body_conventional
+    a_adh = params.sim.adhesion_coefficient * body.gravity_m_s2 * body.front_weight_fraction
+    assert (r["f_max"] <= a_adh / params.sim.mass_factor + 1e-6).all()       # tyres, not the driveline, cap it
+    assert (r["f_max"] > 0).all()
+    finite = np.isfinite(r["t_0_100_s"])
+    assert (r.loc[finite, "t_0_100_s"] > 100 / 3.6 / r.loc[finite, "f_max"] - 1e-6).all()
+    # more motor and engine power never makes the launch slower (same everything else)
+    X = np.array([[30, 30, 15, 3.93, 30, 78, 30], [50, 50, 15, 3.93, 30, 78, 30]], dtype=float)
+    t = sim.run(X, cycles["ftp"])["t_0_100_s"]
+    assert t[1] < t[0]
+
+
+# -------------------------------------------------------------------------------- baselines
+def test_baselines_are_physically_plausible(sim, cycles):
+    """FTP figures against published ones (1st-gen Prius: 4.5-5.6 L/100 km city; a 70 kW compact
+    car: 7-10 L/100 km; Prius 0-100 km/h about 14 s, top speed 160 km/h)."""
+    prius = sim.run(None, cycles["ftp"], "prius").iloc[0]
+    conv = sim.run(None, cycles["ftp"], "conventional").iloc[0]
+    assert 3.0 < prius["fc_soc_corrected"] < 6.0
+    assert 6.5 < conv["fc"] < 10.0
+    assert prius["fc"] < conv["fc"]
+    assert 11.0 < prius["t_0_100_s"] < 18.0 and 150 < prius["v_max"] < 180
+    assert 8.0 < conv["t_0_100_s"] < 13.0
+    assert prius["cycle_met"] and conv["cycle_met"]
+    assert conv["diff_soc"] == 0.0
+
+
+# -------------------------------------------------------------------------------- bad input
+@pytest.mark.parametrize(("row", "name"), [
+    ([80, 40, 20, 3.0, 30, 78, 30], "p_eng_kw"),
+    ([40, 40, 20, 3.0, 30.5, 78, 30], "n_bat"),
+    ([40, 40, 20, 9.0, 30, 78, 30], "i0"),
+    ([40, 40, 20, 3.0, 30, 78, np.nan], "n_s"),
+])
+def test_bad_designs_are_rejected_naming_the_variable(sim, cycles, row, name):
+    with pytest.raises(ValueError, match=name):
+        sim.run(np.array([row], dtype=float), cycles["ftp"])
+
+
+def test_impossible_gear_set_is_rejected(lib, params):
+    p = params.model_copy(update={"design_space": params.design_space.model_copy(update={"n_s": (18, 60)})})
+    with pytest.raises(ValueError, match="n_s"):
+        Simulator(lib, p).run(np.array([[40, 40, 20, 3.0, 30, 50, 55]], dtype=float), build_cycles(p.cycles)["ftp"])
+
+
+def test_unknown_vehicle_is_rejected(sim, cycles):
+    with pytest.raises(ValueError, match="vehicle"):
+        sim.run_raw(np.array([PRIUS], dtype=float), cycles["ftp"], "truck")
+
+
+def test_out_names_cover_the_layout():
+    assert len(OUT_NAMES) == len(set(OUT_NAMES))
+    assert len(DESIGN_VARS) == 7
