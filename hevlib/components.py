@@ -27,6 +27,7 @@ import numpy as np
 import yaml
 
 from hevlib.io import atomic_path, read_table, write_json
+from hevlib.powertrain.lookup import interp_map
 
 RPM = np.pi / 30.0  # rad/s per rpm
 
@@ -53,21 +54,6 @@ def _need(data: dict, key: str, path: Path):
     if key not in data or data[key] is None:
         raise ValueError(f"{path}: missing key {key!r}")
     return data[key]
-
-
-def interp_map(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, x, y) -> np.ndarray:
-    """Bilinear interpolation of ``z[i, j] = f(xs[i], ys[j])`` at ``(x, y)`` (broadcast), clamped to the grid.
-
-    The vectorised twin of ``hevlib.powertrain.lookup.interp2`` (same clamping), for analysis and plots.
-    """
-    x = np.clip(np.asarray(x, dtype=float), xs[0], xs[-1])
-    y = np.clip(np.asarray(y, dtype=float), ys[0], ys[-1])
-    i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, len(xs) - 2)
-    j = np.clip(np.searchsorted(ys, y, side="right") - 1, 0, len(ys) - 2)
-    fx = (x - xs[i]) / (xs[i + 1] - xs[i])
-    fy = (y - ys[j]) / (ys[j + 1] - ys[j])
-    return ((1 - fx) * ((1 - fy) * z[i, j] + fy * z[i, j + 1])
-            + fx * ((1 - fy) * z[i + 1, j] + fy * z[i + 1, j + 1]))
 
 
 @dataclass(frozen=True)

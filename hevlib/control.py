@@ -28,13 +28,8 @@ import numpy as np
 from numba import njit
 
 from hevlib.powertrain.engine import EngineArrays, line_power_for_torque, max_torque
-from hevlib.powertrain.hybrid import (
-    SplitDesign,
-    engine_power_max,
-    engine_window,
-    generator_overspeed_if_stopped,
-)
-from hevlib.powertrain.machines import MachineArrays, electric_power, torque_limit
+from hevlib.powertrain.hybrid import SplitDesign, SplitLimits, generator_overspeed_if_stopped
+from hevlib.powertrain.machines import MachineArrays, electric_power
 
 
 @njit(cache=True, inline="always")
@@ -108,9 +103,9 @@ def thresholds(pms) -> np.ndarray:
 
 
 @njit(cache=True)
-def supervise(engine_on: bool, t_in_state_s: float, soc: float, grade: float, v_kmh: float, w_r: float,
+def supervise(engine_on: bool, t_in_state_s: float, soc: float, grade: float, v_kmh: float, lim: SplitLimits,
               t_r_req: float, p_dis: float, th: np.ndarray, pc: PmsConfig, d: SplitDesign,
-              E: EngineArrays, M: MachineArrays, G: MachineArrays) -> tuple[bool, float]:
+              E: EngineArrays, M: MachineArrays) -> tuple[bool, float]:
     """Engine ON/OFF and target engine power (W) for the next step.
 
     Order of authority: physics first (the engine must turn when the generator would otherwise
@@ -119,12 +114,11 @@ def supervise(engine_on: bool, t_in_state_s: float, soc: float, grade: float, v_
     Target power: ring demand plus accessories plus a charging share (fuzzy charge degree or SOC
     below target), floored at ``p_min_w``, capped by what the engine can give; boost = full power.
     """
-    lo, hi = engine_window(w_r, d)
-    can_run = lo <= hi
+    w_r, t_m_cap = lim.w_r, lim.t_m_cap
+    can_run = lim.lo <= lim.hi
     must_run = generator_overspeed_if_stopped(w_r, d)
     k = d.n_r / d.n_s
-    t_m_cap = torque_limit(w_r, d.s_mot, M)
-    t_r_eng_cap = d.eta_pg * k / (1.0 + k) * max_torque(hi, d.s_eng, E) if can_run else 0.0
+    t_r_eng_cap = d.eta_pg * k / (1.0 + k) * max_torque(lim.hi, d.s_eng, E) if can_run else 0.0
     torque_frac = t_r_req / max(t_m_cap + t_r_eng_cap, 1e-9)
     want, charge_deg, boost_deg = decide(soc, grade, v_kmh, torque_frac, th, pc.on_threshold, engine_on)
     ev_ok = True
@@ -144,7 +138,7 @@ def supervise(engine_on: bool, t_in_state_s: float, soc: float, grade: float, v_
         want = False
     if not want:
         return False, 0.0
-    p_max = engine_power_max(w_r, d, E, G)
+    p_max = lim.p_e_max
     if boost_deg > 0.5:
         return True, p_max
     p_rated = d.s_eng * E.line_p[-1]

@@ -21,7 +21,7 @@ from hevlib.powertrain import hybrid as split
 from hevlib.powertrain import layout as L  # O_*, T_* column indices (compile-time constants)
 from hevlib.powertrain.battery import current_for_power, power_limits
 from hevlib.powertrain.engine import EngineArrays, max_torque, rates
-from hevlib.powertrain.lookup import bracket
+from hevlib.powertrain.lookup import cell
 from hevlib.powertrain.machines import MachineArrays, torque_limit
 from hevlib.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_force
 
@@ -29,9 +29,10 @@ LIMIT_TOL = 1e-9          # relative tolerance of the limit checks
 
 
 class BatteryArrays(NamedTuple):
-    """One module's Rint tables vs SOC (the pack multiplies voltages and resistances by n_bat)."""
+    """One module's Rint tables on a uniform SOC grid ``dsoc i`` from 0 (the pack multiplies voltages
+    and resistances by n_bat)."""
 
-    soc: np.ndarray
+    dsoc: float
     ocv_v: np.ndarray
     r_dis_ohm: np.ndarray
     r_chg_ohm: np.ndarray
@@ -102,7 +103,7 @@ def split_speed_limit(d: split.SplitDesign) -> float:
 @njit(cache=True, inline="always")
 def pack_state(soc: float, n_bat: float, B: BatteryArrays) -> tuple[float, float, float]:
     """(OCV, discharge resistance, charge resistance) of the series pack at ``soc``."""
-    i, f = bracket(soc, B.soc)
+    i, f = cell(soc, 0.0, B.dsoc, B.ocv_v.shape[0])
     ocv = B.ocv_v[i] + f * (B.ocv_v[i + 1] - B.ocv_v[i])
     r_d = B.r_dis_ohm[i] + f * (B.r_dis_ohm[i + 1] - B.r_dis_ohm[i])
     r_c = B.r_chg_ohm[i] + f * (B.r_chg_ohm[i + 1] - B.r_chg_ohm[i])
@@ -127,7 +128,7 @@ def _over(x: float, cap: float) -> bool:
     return x > cap * (1.0 + LIMIT_TOL) + 1e-12
 
 
-SPEED_TOL = 1e-5          # m/s, convergence of a force-limited step's speed
+SPEED_TOL = 1e-4          # m/s, convergence of a force-limited step's speed
 
 
 @njit(cache=True, inline="always")
@@ -147,8 +148,8 @@ def _limited_split(v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs,
     h_a = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_a
     v_b = min(max(v_a + h_a, 0.0), v_cap)
     for _ in range(12):
-        st = split.dispatch(v_b, f_cmd, eng_on, split.engine_power_max(split.ring_speed(v_b, d), d, E, G), p_dis,
-                            p_chg, regen, d, E, M, G)
+        lim = split.limits(v_b, d, E, M, G)
+        st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis, p_chg, regen, d, E, M, G)
         h_b = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_b
         if abs(h_b) <= SPEED_TOL:
             break
@@ -212,15 +213,15 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
         f_adh = adhesion_limit(sn, cs, f_road, ch)
         f_cmd = min(f_req, f_adh) if f_req >= 0.0 else max(f_req, -f_adh)
         regen = c.regen_frac * min(v_req / c.regen_fade_mps, 1.0)
-        w_r = split.ring_speed(v_req, d)
+        lim = split.limits(v_req, d, E, M, G)
         t_r_req = split.ring_torque_for_wheel_force(f_cmd, d)
-        want, p_target = supervise(eng_on, t_state, soc, gr, v0 * 3.6, w_r, t_r_req, p_dis, th, pc, d, E, M, G)
+        want, p_target = supervise(eng_on, t_state, soc, gr, v0 * 3.6, lim, t_r_req, p_dis, th, pc, d, E, M)
         if want != eng_on:
             if want:
                 o[L.O_N_STARTS] += 1.0
             eng_on = want
             t_state = 0.0
-        st = split.dispatch(v_req, f_cmd, eng_on, p_target, p_dis, p_chg, regen, d, E, M, G)
+        st = split.dispatch(lim, f_cmd, eng_on, p_target, p_dis, p_chg, regen, d, E, M, G)
         v_disp = v_req
         f_brake = 0.0
         limited = not stationary and f_req > 0.0 and st.f_del < f_req - 1e-6 * max(1.0, f_req)
@@ -228,9 +229,9 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
             v_avg = 0.0
         elif limited:
             # the driver floors it: engine at full power, then the speed this force buys (fixed point)
-            st = split.dispatch(v_req, f_cmd, eng_on, split.engine_power_max(w_r, d, E, G), p_dis, p_chg, regen,
-                                d, E, M, G)
-            limited = st.f_del < f_req - 1e-6 * max(1.0, f_req)
+            if eng_on and p_target < lim.p_e_max:
+                st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis, p_chg, regen, d, E, M, G)
+                limited = st.f_del < f_req - 1e-6 * max(1.0, f_req)
             if limited:
                 o[L.O_N_LIMITED] += 1.0
                 st, v_disp, v_avg = _limited_split(v0, v_req, v_req, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st,

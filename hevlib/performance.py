@@ -38,8 +38,8 @@ BIG_FORCE = 1e7
 def _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G):
     """Everything the power-split driveline can give at speed ``v`` on a flat road."""
     f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
-    p_max = split.engine_power_max(split.ring_speed(v, d), d, E, G)
-    return f_cmd, split.dispatch(v, f_cmd, True, p_max, p_dis, p_chg, 1.0, d, E, M, G)
+    lim = split.limits(v, d, E, M, G)
+    return f_cmd, split.dispatch(lim, f_cmd, True, lim.p_e_max, p_dis, p_chg, 1.0, d, E, M, G)
 
 
 @njit(cache=True)

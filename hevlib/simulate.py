@@ -33,6 +33,7 @@ from hevlib.performance import performance_batch
 from hevlib.powertrain.conventional import ConvDesign
 from hevlib.powertrain.engine import EngineArrays
 from hevlib.powertrain.layout import BALANCE_SINKS, N_O, N_T, OUT_NAMES, TRACE_NAMES
+from hevlib.powertrain.lookup import resample, uniform_axis
 from hevlib.powertrain.machines import MachineArrays
 from hevlib.powertrain.vehicle import grade_trig
 from hevlib.scaling import conventional_chassis_kg, hybrid_masses
@@ -46,21 +47,41 @@ MIN_DISTANCE_SHARE = 0.01
 
 
 def engine_arrays(engine: EngineMap) -> EngineArrays:
+    """The engine's tables on uniform grids (exact where the grid holds every breakpoint) and its
+    best-efficiency line, for the kernels."""
     p, w, t = best_efficiency_line(engine)
     if p[0] != 0.0 or not np.allclose(np.diff(p), p[1]):
         raise ValueError(f"engine {engine.name}: best-efficiency line must be on a uniform power grid from 0")
     t = np.maximum.accumulate(t)
     t[1:] = np.maximum(t[1:], t[:-1] + 1e-9)          # strictly increasing for the inverse lookup
+    if engine.torque_nm[0] != 0.0:
+        raise ValueError(f"engine {engine.name}: torque axis must start at 0 N m")
+    gw, gt = uniform_axis(engine.speed_rad_s), uniform_axis(engine.torque_nm)
+    maps = [resample(engine.speed_rad_s, engine.torque_nm, m, gw, gt)
+            for m in (engine.fuel_g_s, engine.hc_g_s, engine.co_g_s, engine.nox_g_s)]
     f = np.ascontiguousarray
-    return EngineArrays(f(engine.speed_rad_s, float), f(engine.torque_nm, float), f(engine.max_torque_nm, float),
-                        f(engine.fuel_g_s, float), f(engine.hc_g_s, float), f(engine.co_g_s, float),
-                        f(engine.nox_g_s, float), f(p, float), f(w, float), f(t, float))
+    return EngineArrays(float(gw[0]), float(gw[1] - gw[0]), float(gt[1]),
+                        f(resample(engine.speed_rad_s, None, engine.max_torque_nm, gw)), *(f(m) for m in maps),
+                        f(p, float), f(w, float), f(t, float))
 
 
 def machine_arrays(machine: MachineMap) -> MachineArrays:
+    """Efficiency map and torque limit on uniform grids from 0 (the machine maps' axes start at 0)."""
+    if machine.speed_rad_s[0] != 0.0 or machine.torque_nm[0] != 0.0:
+        raise ValueError(f"machine {machine.name}: speed and torque axes must start at 0")
+    gw, gt = uniform_axis(machine.speed_rad_s), uniform_axis(machine.torque_nm)
     f = np.ascontiguousarray
-    return MachineArrays(f(machine.speed_rad_s, float), f(machine.torque_nm, float), f(machine.efficiency, float),
-                         f(machine.max_torque_nm, float))
+    return MachineArrays(float(gw[1]), float(gt[1]),
+                         f(resample(machine.speed_rad_s, machine.torque_nm, machine.efficiency, gw, gt)),
+                         f(resample(machine.speed_rad_s, None, machine.max_torque_nm, gw)))
+
+
+def battery_arrays(module) -> BatteryArrays:
+    if module.soc[0] != 0.0:
+        raise ValueError(f"battery {module.name}: SOC axis must start at 0")
+    g = uniform_axis(module.soc)
+    return BatteryArrays(float(g[1]), *(np.ascontiguousarray(resample(module.soc, None, a, g))
+                                        for a in (module.ocv_v, module.r_dis_ohm, module.r_chg_ohm)))
 
 
 @dataclass(frozen=True)
@@ -86,8 +107,7 @@ class Simulator:
         self.chassis_kg = conventional_chassis_kg(lib, base.conventional.test_mass_kg, base.conventional.p_eng_kw)
         self._E_h, self._E_c = engine_arrays(lib.engine_hybrid), engine_arrays(lib.engine_conventional)
         self._M, self._G = machine_arrays(lib.motor), machine_arrays(lib.generator)
-        b = lib.battery
-        self._B = BatteryArrays(*(np.ascontiguousarray(a, float) for a in (b.soc, b.ocv_v, b.r_dis_ohm, b.r_chg_ohm)))
+        self._B = battery_arrays(lib.battery)
         self._th = thresholds(params.pms)
         pms = params.pms
         self._pc = PmsConfig(pms.engine_on_threshold, pms.engine_min_on_s, pms.engine_min_off_s,

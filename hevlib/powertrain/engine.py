@@ -11,15 +11,17 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from hevlib.powertrain.lookup import blend, bracket, interp1, interp_uniform
+from hevlib.powertrain.lookup import blend, cell, interp1, interp_uniform
 
 
 class EngineArrays(NamedTuple):
-    """Base (unscaled) engine tables as the kernels see them; rates in g/s on (speed, torque)."""
+    """Base (unscaled) engine tables as the kernels see them, on uniform grids (speed ``w0 + dw i``,
+    torque ``dt j`` from 0); rates in g/s."""
 
-    w: np.ndarray          # speed axis, rad/s
-    t: np.ndarray          # torque axis, N m
-    t_max: np.ndarray      # full-load torque vs w, N m
+    w0: float              # speed grid, rad/s
+    dw: float
+    dt: float              # torque grid step from 0, N m
+    t_max: np.ndarray      # full-load torque on the speed grid, N m
     fuel: np.ndarray       # g/s
     hc: np.ndarray
     co: np.ndarray
@@ -31,7 +33,8 @@ class EngineArrays(NamedTuple):
 
 @njit(cache=True, inline="always")
 def max_torque(w: float, s: float, e: EngineArrays) -> float:
-    return interp1(w, e.w, e.t_max) * s
+    i, f = cell(w, e.w0, e.dw, e.t_max.shape[0])
+    return (e.t_max[i] + f * (e.t_max[i + 1] - e.t_max[i])) * s
 
 
 @njit(cache=True, inline="always")
@@ -49,7 +52,7 @@ def line_power_for_torque(t: float, s: float, e: EngineArrays) -> float:
 @njit(cache=True)
 def rates(w: float, t: float, s: float, e: EngineArrays) -> tuple[float, float, float, float]:
     """(fuel, hc, co, nox) in g/s at speed ``w`` and torque ``t`` (>= 0) of the engine scaled by ``s``."""
-    i, fx = bracket(w, e.w)
-    j, fy = bracket(t / s, e.t)
+    i, fx = cell(w, e.w0, e.dw, e.fuel.shape[0])
+    j, fy = cell(t / s, 0.0, e.dt, e.fuel.shape[1])
     return (s * blend(e.fuel, i, j, fx, fy), s * blend(e.hc, i, j, fx, fy),
             s * blend(e.co, i, j, fx, fy), s * blend(e.nox, i, j, fx, fy))

@@ -57,6 +57,17 @@ class SplitState(NamedTuple):
     t_r: float             # total ring torque, N m
 
 
+class SplitLimits(NamedTuple):
+    """What the driveline can do at one vehicle speed (computed once per speed, shared by the
+    supervisor and every dispatch at that speed)."""
+
+    w_r: float             # ring (motor) speed, rad/s
+    t_m_cap: float         # motor torque limit, N m
+    lo: float              # engine speed window (lo > hi: the engine cannot run)
+    hi: float
+    p_e_max: float         # most engine power at this speed, W
+
+
 @njit(cache=True, inline="always")
 def ring_speed(v: float, d: SplitDesign) -> float:
     return v / d.r * d.i0
@@ -87,16 +98,17 @@ def generator_overspeed_if_stopped(w_r: float, d: SplitDesign) -> bool:
 
 
 @njit(cache=True)
-def engine_power_max(w_r: float, d: SplitDesign, E: EngineArrays, G: MachineArrays) -> float:
-    """Most engine power available at ring speed ``w_r`` (top of the speed window, full load,
-    generator reaction torque), W; 0 when the window is empty."""
+def limits(v: float, d: SplitDesign, E: EngineArrays, M: MachineArrays, G: MachineArrays) -> SplitLimits:
+    """Ring speed, motor torque limit, engine speed window and the most engine power at speed ``v``
+    (the top of the window at full load, or at the torque the generator can react), W."""
+    w_r = ring_speed(v, d)
     lo, hi = engine_window(w_r, d)
-    if lo > hi:
-        return 0.0
-    k = d.n_r / d.n_s
-    w_g = sun_speed(hi, w_r, d.n_r, d.n_s)
-    t = min(max_torque(hi, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
-    return t * hi
+    p_max = 0.0
+    if lo <= hi:
+        k = d.n_r / d.n_s
+        w_g = sun_speed(hi, w_r, d.n_r, d.n_s)
+        p_max = hi * min(max_torque(hi, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
+    return SplitLimits(w_r, torque_limit(w_r, d.s_mot, M), lo, hi, p_max)
 
 
 @njit(cache=True)
@@ -173,20 +185,18 @@ def _less_circulation(t_e: float, w_g: float, p_m_e: float, p_dis: float, d: Spl
 
 
 @njit(cache=True)
-def dispatch(v: float, f_req: float, engine_on: bool, p_e_target: float, p_dis: float, p_chg: float,
+def dispatch(lim: SplitLimits, f_req: float, engine_on: bool, p_e_target: float, p_dis: float, p_chg: float,
              regen_frac: float, d: SplitDesign, E: EngineArrays, M: MachineArrays,
              G: MachineArrays) -> SplitState:
-    """Operating point at mean speed ``v`` for wheel force ``f_req`` within every limit.
+    """Operating point at the speed of ``lim`` (:func:`limits`) for wheel force ``f_req`` within every limit.
 
     ``p_dis``/``p_chg``: battery discharge/charge power limits (W, >= 0). ``regen_frac``: share of a
     braking request the driveline may take (the rest is friction braking).
     """
-    w_r = ring_speed(v, d)
+    w_r, t_m_cap, lo, hi = lim.w_r, lim.t_m_cap, lim.lo, lim.hi
     t_r_req = ring_torque_for_wheel_force(f_req, d)
     t_r_drive = t_r_req if t_r_req >= 0.0 else t_r_req * regen_frac
-    t_m_cap = torque_limit(w_r, d.s_mot, M)
     p_acc = d.p_acc_w
-    lo, hi = engine_window(w_r, d)
     running = engine_on and lo <= hi
 
     if running:
@@ -196,7 +206,7 @@ def dispatch(v: float, f_req: float, engine_on: bool, p_e_target: float, p_dis: 
         p_batt = p_m_e + p_g_e + p_acc
         if p_batt > p_dis:
             # more engine power first (battery power falls as engine power rises) ...
-            p_hi = engine_power_max(w_r, d, E, G)
+            p_hi = lim.p_e_max
             if p_hi > p_e:
                 st = _engine_on(p_hi, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G)
                 h_hi = st[6] + st[7] + p_acc
