@@ -93,3 +93,25 @@ def gear_set_buildable(n_r: np.ndarray, n_s: np.ndarray, n_planets: int = 4, min
     n_r, n_s = np.asarray(n_r), np.asarray(n_s)
     diff = n_r - n_s
     return (diff > 0) & (diff % 2 == 0) & (diff // 2 >= min_planet_teeth) & ((n_r + n_s) % n_planets == 0)
+
+
+def buildable_gear_sets(space: DesignSpace, n_planets: int = 4, min_planet_teeth: int = 9) -> np.ndarray:
+    """Every buildable (n_r, n_s) pair (:func:`gear_set_buildable`) inside the design space, (k, 2) ints."""
+    j_r, j_s = DESIGN_VARS.index("n_r"), DESIGN_VARS.index("n_s")
+    n_r, n_s = np.meshgrid(np.arange(np.ceil(space.lower[j_r]), np.floor(space.upper[j_r]) + 1),
+                           np.arange(np.ceil(space.lower[j_s]), np.floor(space.upper[j_s]) + 1), indexing="ij")
+    n_r, n_s = n_r.ravel().astype(int), n_s.ravel().astype(int)
+    ok = gear_set_buildable(n_r, n_s, n_planets, min_planet_teeth)
+    return np.column_stack([n_r[ok], n_s[ok]])
+
+
+def nearest_gear_set(n_r: np.ndarray, n_s: np.ndarray, pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The buildable pair (row of ``pairs``) nearest each (n_r, n_s): least change of the ratio
+    ``k = n_r / n_s`` (what the kinematics depend on), then of the ring size."""
+    if len(pairs) == 0:
+        raise ValueError("design_space: no buildable gear set (n_r, n_s) lies inside the bounds")
+    k = np.asarray(n_r, float) / np.asarray(n_s, float)
+    k_p = pairs[:, 0] / pairs[:, 1]
+    cost = (k[:, None] - k_p[None, :]) ** 2 + 1e-12 * (np.asarray(n_r, float)[:, None] - pairs[None, :, 0]) ** 2
+    best = np.argmin(cost, axis=1)
+    return pairs[best, 0].astype(float), pairs[best, 1].astype(float)

@@ -240,6 +240,7 @@ class OptimiseParams(_Strict):
     hv_samples: Annotated[int, Field(ge=100, le=10_000_000)] = 200_000
     hv_seed: Seed = 7
     hv_reference: Annotated[float, Field(gt=0, le=10)] = 1.1   # reference point, DOE-normalised units
+    apply_screen_rules: bool = True     # the screen's rules (switched on there) as optimiser constraints
     algorithms: dict[Literal["nsga3", "moead", "moga"], AlgoParams]
 
 

@@ -1,0 +1,61 @@
+"""``hev optimise ALGO``: one many-objective optimiser on its surrogate, the front re-simulated (SPEC 8)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from hevlib.io import read_table, write_json, write_parquet
+from hevlib.optimise import ALGORITHMS, HevProblem, HvSettings, doe_normalisation, optimise_and_resimulate
+from hevlib.plots import save_figure
+from hevlib.plots.fronts import front_figure
+from stages.cli import app
+from stages.common import PARAMS_OPTION, params_from, stage
+from stages.doe import DOE, sizing_setup
+
+MODELS_DIR = Path("models")
+FRONTS_DIR = Path("data/pareto")
+REPORTS_DIR = Path("reports")
+
+
+@app.command("optimise")
+@stage
+def optimise_stage(algo: str = typer.Argument(..., help=f"one of {', '.join(ALGORITHMS)}"),
+                   params: str = PARAMS_OPTION) -> None:
+    """Optimise on the surrogate of params.optimise.algorithms.ALGO, re-simulate the front on the sizing
+    cycle; write data/pareto/ALGO.parquet, reports/optimise_ALGO.json and reports/plots/optimise_ALGO.png."""
+    from hevlib.surrogates import load_surrogate
+
+    cfg = params_from(params)
+    if cfg.optimise is None:
+        raise ValueError("params.yaml: optimise: group missing")
+    if algo not in cfg.optimise.algorithms:
+        raise ValueError(f"params.yaml: optimise.algorithms.{algo}: not configured "
+                         f"(configured: {', '.join(cfg.optimise.algorithms) or 'none'})")
+    settings = cfg.optimise.algorithms[algo]
+    o = cfg.optimise
+    hv = HvSettings(doe_normalisation(read_table(DOE), what=str(DOE)), o.hv_reference, o.hv_samples, o.hv_seed)
+    surrogate = load_surrogate(settings.surrogate, models_dir=MODELS_DIR)
+    sim, cycle = sizing_setup(cfg)
+    space = cfg.design_space.space()
+    rules = cfg.screen if o.apply_screen_rules else None
+    problem = HevProblem(surrogate, space, sim.mass_kg, cfg.baseline.conventional.test_mass_kg,
+                         speed_dev_max_kmh=rules.speed_dev_max_kmh if rules else None,
+                         gen_below_motor=bool(rules and rules.gen_below_motor),
+                         buildable_gear_set=bool(rules and rules.buildable_gear_set))
+    result = optimise_and_resimulate(
+        problem, algo, settings, lambda X: sim.run(X, cycle, vehicle="hybrid", batch_size=cfg.doe.batch_size), hv)
+    fig = front_figure(result.table, hv.norm, title=f"{algo} on {settings.surrogate}: front re-simulated on "
+                                                     f"{cycle.name}")
+
+    write_parquet(FRONTS_DIR / f"{algo}.parquet", result.table, result.schema,
+                  metadata={"algo": algo, "surrogate": settings.surrogate, "cycle": cycle.name})
+    write_json(REPORTS_DIR / f"optimise_{algo}.json", result.report)
+    save_figure(fig, REPORTS_DIR / "plots" / f"optimise_{algo}.png")
+    r = result.report
+    typer.echo(f"optimise {algo}: {r['front_size']} designs in {r['runtime_s']:.1f} s "
+               f"({r['n_evaluations']} evaluations) + {r['runtime_resim_s']:.1f} s re-simulation; "
+               f"HV {r['hypervolume']:.4g} +- {r['hypervolume_se']:.2g}, "
+               f"{100 * (r['share_nondominated_after_resim'] or 0):.0f} % still non-dominated "
+               f"-> {FRONTS_DIR / (algo + '.parquet')}")
