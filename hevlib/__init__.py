@@ -17,12 +17,15 @@ MODEL_VERSION = "sim-1"
 #: modules it calls, so the cache lives in a folder named after a hash of all of them: editing any
 #: kernel module starts a fresh cache instead of silently reusing stale machine code.
 _KERNEL_SOURCES = ("control.py", "drive.py", "performance.py", "powertrain")
+#: Everything that changes a simulated response (kernels, responses, component data handling).
+SIMULATOR_SOURCES = (*_KERNEL_SOURCES, "simulate.py", "components.py", "scaling.py", "cycles.py")
 
 
-def _kernel_hash() -> str:
+def source_hash(names=_KERNEL_SOURCES) -> str:
+    """Short hash of the named hevlib modules (files or packages)."""
     root = Path(__file__).parent
     h = hashlib.sha256()
-    for name in _KERNEL_SOURCES:
+    for name in names:
         path = root / name
         for f in sorted(path.rglob("*.py")) if path.is_dir() else [path]:
             h.update(f.name.encode())
@@ -32,4 +35,4 @@ def _kernel_hash() -> str:
 
 if "NUMBA_CACHE_DIR" not in os.environ:
     _base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hev-sizing" / "numba"
-    os.environ["NUMBA_CACHE_DIR"] = str(_base / _kernel_hash())
+    os.environ["NUMBA_CACHE_DIR"] = str(_base / source_hash())

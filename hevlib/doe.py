@@ -29,7 +29,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from hevlib import MODEL_VERSION
+from hevlib import MODEL_VERSION, SIMULATOR_SOURCES, source_hash
 from hevlib.design import (
     DESIGN_VARS,
     INTEGER_MASK,
@@ -186,9 +186,10 @@ def heldout_record(space: DesignSpace, p) -> dict:
 
 
 def simulation_fingerprint(params) -> str:
-    """Short hash of everything that changes a simulated response: the model version and the params
-    groups ``cycles``, ``baseline``, ``sim``, ``pms`` (a cached simulated set is reused only if equal)."""
-    blob = json.dumps({"model_version": MODEL_VERSION,
+    """Short hash of everything that changes a simulated response: the model version, the simulator's
+    source code and the params groups ``cycles``, ``baseline``, ``sim``, ``pms`` (a cached simulated set
+    is reused only if equal)."""
+    blob = json.dumps({"model_version": MODEL_VERSION, "simulator_source": source_hash(SIMULATOR_SOURCES),
                        **params.model_dump(mode="json", include={"cycles", "baseline", "sim", "pms"})},
                       sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]

@@ -79,13 +79,13 @@ def save_with(path: str | os.PathLike, writer: Callable[[Path], None]) -> None:
         writer(tmp)
 
 
-def write_table(path: str | os.PathLike, table: pd.DataFrame) -> None:
-    """Write a CSV or Parquet table (by extension), atomically."""
+def write_table(path: str | os.PathLike, table: pd.DataFrame, *, float_format: str | None = None) -> None:
+    """Write a CSV or Parquet table (by extension), atomically; ``float_format`` applies to CSV."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".csv":
         with atomic_path(path) as tmp:
-            table.to_csv(tmp, index=False)
+            table.to_csv(tmp, index=False, float_format=float_format)
     elif suffix in (".parquet", ".pq"):
         write_parquet(path, table)
     else:

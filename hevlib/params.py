@@ -200,6 +200,15 @@ class BnnParams(_Strict):
     error_goal: NonNeg = 1e-10                                # stop when the standardised train MSE is below
     evidence_every: Annotated[int, Field(ge=1, le=100_000)] = 10  # epochs between alpha/beta re-estimations
     seed: Seed = 0                                            # weight initialisation
+    # objectives fitted as log(y + c) (heavy-tailed per-km figures); see hevlib/surrogates/transform.py
+    log_targets: list[str] = ["fc", "hc", "co", "nox"]
+
+    @model_validator(mode="after")
+    def _known_log_targets(self):
+        from hevlib.surrogates.transform import objective_indices
+
+        objective_indices(self.log_targets, what="log_targets")
+        return self
 
 
 class HeldoutParams(_Strict):

@@ -5,12 +5,16 @@ from __future__ import annotations
 import functools
 import os
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
 
 import typer
 
 from hevlib.params import Params, ParamsError, load_params
 
+CYCLES_DIR = Path("data/cycles")
+COMPONENTS_DIR = Path("data/components")
 PARAMS_OPTION = typer.Option("params.yaml", "--params", help="params file to validate and use")
 
 
@@ -38,10 +42,33 @@ def interactive() -> bool:
     return sys.stderr.isatty() and not os.environ.get("CI")
 
 
-def progress(items: Iterable, *, total: int | None = None, description: str = "") -> Iterable:
+@contextmanager
+def progress_callback(description: str) -> Iterator[Callable[[int, int], None] | None]:
+    """A ``progress(n_done, n_total)`` callback drawing a bar for a person at a terminal, else None."""
     if not interactive():
-        yield from items
+        yield None
         return
-    from rich.progress import track
+    from rich.progress import Progress
 
-    yield from track(items, total=total, description=description, transient=True)
+    with Progress(transient=True) as bar:
+        task = bar.add_task(description, total=None)
+        yield lambda done, total: bar.update(task, completed=done, total=total)
+
+
+def cycle_named(name: str):
+    """The processed cycle ``data/cycles/<name>.parquet`` (grade and key-off periods attached)."""
+    from hevlib.cycles import Cycle
+
+    return Cycle.from_parquet(CYCLES_DIR / f"{name}.parquet", name)
+
+
+def simulator(params):
+    """The simulator on the components stage's normalised maps."""
+    from hevlib.simulate import Simulator  # numba kernels: only loaded to simulate
+
+    return Simulator.from_params(params, components_dir=str(COMPONENTS_DIR))
+
+
+def sizing_setup(params):
+    """The simulator and the sizing cycle (``cycles.sizing``, grade attached)."""
+    return simulator(params), cycle_named(params.cycles.sizing)

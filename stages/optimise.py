@@ -11,8 +11,8 @@ from hevlib.optimise import ALGORITHMS, HevProblem, HvSettings, doe_normalisatio
 from hevlib.plots import save_figure
 from hevlib.plots.fronts import front_figure
 from stages.cli import app
-from stages.common import PARAMS_OPTION, params_from, stage
-from stages.doe import DOE, sizing_setup
+from stages.common import PARAMS_OPTION, params_from, sizing_setup, stage
+from stages.doe import DOE
 
 MODELS_DIR = Path("models")
 FRONTS_DIR = Path("data/pareto")

@@ -8,14 +8,11 @@ import numpy as np
 import pandas as pd
 import typer
 
-from hevlib.cycles import Cycle
 from hevlib.design import design_matrix
 from hevlib.io import read_table, write_table
-from hevlib.simulate import VEHICLES, Simulator, with_inputs
+from hevlib.simulate import VEHICLES, with_inputs
 from stages.cli import app
-from stages.common import PARAMS_OPTION, params_from, stage
-
-CYCLES_DIR = Path("data/cycles")
+from stages.common import PARAMS_OPTION, cycle_named, params_from, simulator, stage
 
 
 @app.command("simulate")
@@ -34,12 +31,12 @@ def simulate(
         raise ValueError(f"--vehicle: {vehicle!r} is not one of {', '.join(VEHICLES)}")
     if cycle not in p.cycles.cycles:
         raise ValueError(f"--cycle: {cycle!r} is not one of {', '.join(p.cycles.cycles)}")
-    cyc = Cycle.from_parquet(CYCLES_DIR / f"{cycle}.parquet", cycle)
+    cyc = cycle_named(cycle)
     if grade is not None:
         if not -30.0 <= grade <= 30.0:
             raise ValueError(f"--grade: {grade:g} % is outside [-30, 30] %")
         cyc = cyc.with_grade(grade / 100.0)
-    sim = Simulator.from_params(p)
+    sim = simulator(p)
     if vehicle == "hybrid":
         if designs is None:
             raise ValueError("--designs: a design table is required for --vehicle hybrid")

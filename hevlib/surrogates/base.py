@@ -1,4 +1,7 @@
-"""The one interface every surrogate offers the optimisers (scikit-learn style fit / predict)."""
+"""The one interface every surrogate offers the optimisers (scikit-learn style fit / predict).
+
+Also the input checks both surrogates share, so every model rejects bad designs with the same message.
+"""
 
 from __future__ import annotations
 
@@ -6,15 +9,52 @@ from typing import Protocol, Self, runtime_checkable
 
 import numpy as np
 
+from hevlib.design import OBJECTIVES, DesignSpace
+
 
 @runtime_checkable
 class Surrogate(Protocol):
     """Predicts the eleven objectives (``hevlib.design.OBJECTIVES`` order, natural units) of designs.
 
     ``X`` is (n, 7) in ``DESIGN_VARS`` order; integer variables may be given as reals (continuous
-    relaxation). Designs outside the design space raise ``ValueError`` naming the variable.
+    relaxation). Designs outside the design space raise ``ValueError`` naming the variable. A surrogate
+    that reports uncertainty (the BNN) also accepts ``predict(X, return_std=True) -> (mean, std)``.
     """
 
     def fit(self, X: np.ndarray, Y: np.ndarray) -> Self: ...
 
     def predict(self, X: np.ndarray) -> np.ndarray: ...
+
+
+class NotFittedError(ValueError):
+    """``predict`` or ``save`` called on a surrogate that has not been fitted or loaded."""
+
+
+def check_designs(space: DesignSpace, X: np.ndarray, *, what: str = "surrogate input") -> np.ndarray:
+    """``X`` as a float (n, 7) array inside ``space`` (integers relaxed); ValueError naming the variable."""
+    X = space.check(X, what=what, integers=False)
+    if X.shape[0] == 0:
+        raise ValueError(f"{what}: no designs (0 rows)")
+    return X
+
+
+def check_targets(Y: np.ndarray, n: int, *, what: str = "surrogate targets") -> np.ndarray:
+    """``Y`` as a finite float (n, 11) array in ``OBJECTIVES`` order; ValueError naming the objective."""
+    Y = np.asarray(Y, dtype=float)
+    if Y.ndim != 2 or Y.shape != (n, len(OBJECTIVES)):
+        raise ValueError(f"{what}: expected shape ({n}, {len(OBJECTIVES)}) in order {OBJECTIVES}, "
+                         f"got {Y.shape}")
+    for k, name in enumerate(OBJECTIVES):
+        bad = ~np.isfinite(Y[:, k])
+        if np.any(bad):
+            raise ValueError(f"{what}: {name} is not finite (NaN or inf) in row {int(np.argmax(bad))}")
+    return Y
+
+
+def space_to_dict(space: DesignSpace) -> dict[str, list[float]]:
+    """The design-space bounds as plain lists (stored with every saved model)."""
+    return {"lower": [float(v) for v in space.lower], "upper": [float(v) for v in space.upper]}
+
+
+def space_from_dict(data: dict) -> DesignSpace:
+    return DesignSpace(np.asarray(data["lower"], dtype=float), np.asarray(data["upper"], dtype=float))

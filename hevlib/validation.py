@@ -1,0 +1,262 @@
+"""Validate the picked designs against the conventional car and the stock Prius (the study's Table 8).
+
+:func:`validation_table` simulates every picked design and both baselines on each validation cycle
+(one row per vehicle and cycle). :func:`improvement_table` turns one cycle of it into mean
+improvements, '+' = better:
+
+* minimised responses (mass, fuel, emissions): ``100 * (base - design) / |base|`` (%);
+* maximised responses (``v_max``, ``f_max``, ``eta_drivetrain``): ``100 * (design - base) / |base|`` (%);
+* ``diff_soc`` (SOC at start - SOC at end, minimised like the objective): ``100 * (base - design)``,
+  an absolute difference in **SOC percentage points**, because a baseline's SOC difference can be
+  near zero or negative and a percentage of it means nothing. Against the conventional car (no
+  traction battery) it is not applicable and reported as null;
+* a percentage whose base is zero or not finite is null, never a division by zero.
+
+The mean over an algorithm's picks is the mean of the per-design improvements (the same as the
+improvement of the mean design, the base being fixed); a design found by several algorithms counts
+for each of them; ``"all"`` is every pick once. Engine downsizing is ``100 * (p_conv - mean p_eng_kw)
+/ p_conv`` with ``p_conv`` the conventional car's engine power (70 kW).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+
+from hevlib.cycles import Cycle
+from hevlib.design import DESIGN_VARS, RESPONSES, design_matrix
+from hevlib.pareto import algo_names
+
+#: Responses of the improvement table, in its row order.
+IMPROVEMENT_RESPONSES: tuple[str, ...] = (
+    "m_veh", "fc", "fc_soc_corrected", "diff_soc", "hc", "co", "nox", "v_max", "f_max", "eta_drivetrain",
+)
+MAXIMISED = frozenset({"v_max", "f_max", "eta_drivetrain"})
+#: Responses whose improvement is an absolute difference (SOC percentage points), not a percentage.
+SOC_POINTS = frozenset({"diff_soc"})
+BASELINES: tuple[str, ...] = ("conventional", "prius")
+#: Baselines without a traction battery: SOC comparisons against them are not applicable.
+NO_BATTERY = frozenset({"conventional"})
+BASELINE_ALGO = "baseline"
+ALL = "all"
+_EPS = 1e-12
+
+
+class RunsCycles(Protocol):
+    def run(self, X: np.ndarray, cycle: Cycle, vehicle: str = "hybrid", batch_size: int = 1000,
+            progress: Callable[[int, int], None] | None = None) -> pd.DataFrame: ...
+
+
+# ---------------------------------------------------------------------------------- improvement
+def improvement(response: str, design, base: float, *, base_has_battery: bool = True) -> np.ndarray:
+    """Per-design improvement over ``base`` for one response ('+' = better; module docstring for units)."""
+    design = np.asarray(design, dtype=float)
+    base = float(base)
+    if response in SOC_POINTS:
+        if not base_has_battery or not np.isfinite(base):
+            return np.full(design.shape, np.nan)
+        return 100.0 * (base - design)
+    if not np.isfinite(base) or abs(base) < _EPS:
+        return np.full(design.shape, np.nan)
+    gain = design - base if response in MAXIMISED else base - design
+    return 100.0 * gain / abs(base)
+
+
+def _mean(values: np.ndarray) -> float | None:
+    values = values[np.isfinite(values)]
+    return float(values.mean()) if values.size else None
+
+
+def group_rows(vehicles: pd.DataFrame, algos: Sequence[str]) -> dict[str, np.ndarray]:
+    """Masks of the design rows of each algorithm (a shared design counts for each) and of ``all``."""
+    lists = [algo_names(a) for a in vehicles["algo"]]
+    groups = {a: np.array([a in names for names in lists], dtype=bool) for a in algos}
+    groups[ALL] = np.ones(len(vehicles), dtype=bool)
+    return groups
+
+
+def improvement_table(designs: pd.DataFrame, baselines: dict[str, pd.Series], algos: Sequence[str],
+                      responses: Sequence[str] = IMPROVEMENT_RESPONSES) -> dict:
+    """``{algo|"all": {"vs_<baseline>": {response: mean improvement or None}}}`` for one cycle."""
+    out = {}
+    for group, mask in group_rows(designs, algos).items():
+        out[group] = {}
+        for name, base in baselines.items():
+            has_batt = name not in NO_BATTERY
+            out[group][f"vs_{name}"] = {
+                r: _mean(improvement(r, designs.loc[mask, r].to_numpy(dtype=float), base[r],
+                                     base_has_battery=has_batt)) for r in responses}
+    return out
+
+
+def engine_downsizing(designs: pd.DataFrame, algos: Sequence[str],
+                      p_conv_kw: float) -> dict[str, float | None]:
+    """Mean engine power of each group's picks vs the conventional engine, in % ('+' = smaller)."""
+    out = {}
+    for group, mask in group_rows(designs, algos).items():
+        p = designs.loc[mask, "p_eng_kw"].to_numpy(dtype=float)
+        out[group] = float(100.0 * (p_conv_kw - p.mean()) / p_conv_kw) if p.size else None
+    return out
+
+
+# ---------------------------------------------------------------------------------- simulation
+def load_cycles(names: Sequence[str], known: Sequence[str], cycles_dir: str | Path) -> list[Cycle]:
+    """The validation cycles from ``<cycles_dir>/<name>.parquet``; unknown names fail naming the key."""
+    for name in names:
+        if name not in known:
+            raise ValueError(f"params.yaml: validate.cycles: {name!r} is not one of cycles.cycles")
+    return [Cycle.from_parquet(Path(cycles_dir) / f"{name}.parquet", name=name) for name in names]
+
+
+def cycle_notes(cycles: Sequence[Cycle]) -> list[str]:
+    """Report lines for validation cycles that carry a road grade (validation is meant on a flat road)."""
+    return [f"validation cycle {c.name} carries a mean road grade of {100 * float(np.mean(c.grade)):.1f} %"
+            for c in cycles if np.any(c.grade != 0)]
+
+
+def prius_design(prius) -> np.ndarray:
+    """The stock Prius as a (7,) design vector (``params.baseline.prius``)."""
+    return np.array([float(getattr(prius, v)) for v in DESIGN_VARS])
+
+
+def _responses(df: pd.DataFrame, n: int, what: str) -> pd.DataFrame:
+    missing = [c for c in RESPONSES if c not in df.columns]
+    if missing:
+        raise ValueError(f"simulator result for {what}: missing response column(s) {', '.join(missing)}")
+    if len(df) != n:
+        raise ValueError(f"simulator result for {what}: expected {n} row(s), got {len(df)}")
+    return df[list(RESPONSES)].reset_index(drop=True)
+
+
+def validation_table(sim: RunsCycles, selected: pd.DataFrame, cycles: Sequence[Cycle], prius_x: np.ndarray,
+                     *, batch_size: int = 1000) -> pd.DataFrame:
+    """Simulate the picks and both baselines on every cycle: one row per vehicle and cycle.
+
+    Columns: ``vehicle`` (the design id, ``conventional`` or ``prius``), ``algo`` (``baseline`` for the
+    baselines), ``cycle``, the seven variables (NaN for the conventional car, the stock values for the
+    Prius), then every column of :data:`hevlib.design.RESPONSES`.
+    """
+    X = design_matrix(selected, what="selected designs")
+    prius_x = np.asarray(prius_x, dtype=float)
+    parts = []
+    for cycle in cycles:
+        blocks = []
+        if len(X):
+            res = _responses(sim.run(X, cycle, vehicle="hybrid", batch_size=batch_size), len(X),
+                             f"the picked designs on {cycle.name}")
+            ids = pd.DataFrame({"vehicle": selected["design_id"].astype(str).to_numpy(),
+                                "algo": selected["algo"].astype(str).to_numpy()})
+            blocks.append(pd.concat([ids, pd.DataFrame(X, columns=list(DESIGN_VARS)), res], axis=1))
+        for vehicle in BASELINES:
+            res = _responses(sim.run(prius_x[None, :], cycle, vehicle=vehicle), 1,
+                             f"{vehicle} on {cycle.name}")
+            x = prius_x if vehicle == "prius" else np.full(len(DESIGN_VARS), np.nan)
+            ids = pd.DataFrame({"vehicle": [vehicle], "algo": [BASELINE_ALGO]})
+            blocks.append(pd.concat([ids, pd.DataFrame(x[None, :], columns=list(DESIGN_VARS)), res], axis=1))
+        part = pd.concat(blocks, ignore_index=True)
+        part.insert(2, "cycle", cycle.name)
+        parts.append(part)
+    table = pd.concat(parts, ignore_index=True)
+    table["cycle_met"] = table["cycle_met"].astype(bool)
+    return table
+
+
+def validation_schema() -> pa.Schema:
+    """Explicit schema of ``reports/validation.parquet``."""
+    fields = [pa.field("vehicle", pa.string(), nullable=False), pa.field("algo", pa.string(), nullable=False),
+              pa.field("cycle", pa.string(), nullable=False)]
+    fields += [pa.field(v, pa.float64()) for v in DESIGN_VARS]
+    fields += [pa.field(r, pa.bool_() if r == "cycle_met" else pa.float64()) for r in RESPONSES]
+    return pa.schema(fields)
+
+
+def split_cycle(table: pd.DataFrame, cycle: str) -> tuple[pd.DataFrame, dict[str, pd.Series]]:
+    """(picked-design rows, {baseline: row}) of one cycle of the validation table."""
+    rows = table[table["cycle"] == cycle]
+    designs = rows[rows["algo"] != BASELINE_ALGO].reset_index(drop=True)
+    baselines = {}
+    for name in BASELINES:
+        hit = rows[rows["vehicle"] == name]
+        if len(hit) != 1:
+            raise ValueError(f"validation table: expected one {name!r} row on cycle {cycle!r}, "
+                             f"got {len(hit)}")
+        baselines[name] = hit.iloc[0]
+    return designs, baselines
+
+
+def best_design(table: pd.DataFrame, cycle: str) -> str | None:
+    """The pick with the lowest SOC-corrected fuel consumption on ``cycle`` among those that met it
+    (all picks when none did); None without picks."""
+    designs, _ = split_cycle(table, cycle)
+    if designs.empty:
+        return None
+    pool = designs[designs["cycle_met"]] if designs["cycle_met"].any() else designs
+    fc = pool["fc_soc_corrected"].to_numpy(dtype=float)
+    if not np.isfinite(fc).any():
+        return str(pool["vehicle"].iloc[0])
+    return str(pool["vehicle"].iloc[int(np.nanargmin(fc))])
+
+
+def traces(sim, selected: pd.DataFrame, design_id: str, cycle: Cycle,
+           prius_x: np.ndarray) -> dict[str, pd.DataFrame] | None:
+    """Time traces of one picked design and both baselines on ``cycle`` (``sim.trace``), keyed by vehicle;
+    None when the simulator offers no traces."""
+    trace = getattr(sim, "trace", None)
+    if trace is None:
+        return None
+    row = selected[selected["design_id"].astype(str) == design_id]
+    if len(row) != 1:
+        raise ValueError(f"selected designs: no single design {design_id!r}")
+    prius_x = np.asarray(prius_x, dtype=float)[None, :]
+    out = {design_id: trace(design_matrix(row), cycle, "hybrid")}
+    for vehicle in BASELINES:
+        out[vehicle] = trace(prius_x, cycle, vehicle)
+    return out
+
+
+def summarise(table: pd.DataFrame, algos: Sequence[str], cycles: Sequence[str], p_conv_kw: float) -> dict:
+    """``reports/validation.json``: headline (first cycle) improvement table, counts, engine downsizing,
+    baseline and mean-pick responses, and the same improvement table for every other cycle."""
+    headline = cycles[0]
+    designs, baselines = split_cycle(table, headline)
+    groups = group_rows(designs, algos)
+
+    def _abs(df: pd.DataFrame) -> dict:
+        return {r: _mean(df[r].to_numpy(dtype=float)) for r in IMPROVEMENT_RESPONSES}
+
+    by_cycle, met = {}, {}
+    for cycle in cycles:
+        d, b = split_cycle(table, cycle)
+        met[cycle] = {"picked": int(d["cycle_met"].sum()), **{k: bool(v["cycle_met"]) for k, v in b.items()}}
+        if cycle != headline:
+            by_cycle[cycle] = {"improvement": improvement_table(d, b, algos)}
+    return {
+        "cycle": headline,
+        "improvement": improvement_table(designs, baselines, algos),
+        "units": {r: ("SOC percentage points" if r in SOC_POINTS else "%") for r in IMPROVEMENT_RESPONSES},
+        "counts": {"picked": int(len(designs)),
+                   "by_algo": {g: int(m.sum()) for g, m in groups.items() if g != ALL},
+                   "cycle_met": met},
+        "engine_downsizing_pct": engine_downsizing(designs, algos, p_conv_kw),
+        "mean_p_eng_kw": {g: _mean(designs.loc[m, "p_eng_kw"].to_numpy(dtype=float))
+                          for g, m in groups.items()},
+        "p_eng_conventional_kw": float(p_conv_kw),
+        "absolute": {"mean_of_picks": {g: _abs(designs[m]) for g, m in groups.items()},
+                     **{name: {r: float(b[r]) for r in IMPROVEMENT_RESPONSES}
+                        for name, b in baselines.items()}},
+        "by_cycle": by_cycle,
+        "best_design": best_design(table, headline),
+    }
+
+
+__all__ = [
+    "IMPROVEMENT_RESPONSES", "MAXIMISED", "SOC_POINTS", "BASELINES", "NO_BATTERY", "BASELINE_ALGO", "ALL",
+    "improvement", "group_rows", "improvement_table", "engine_downsizing", "load_cycles", "cycle_notes",
+    "prius_design", "validation_table", "validation_schema", "split_cycle", "best_design", "summarise",
+    "traces",
+]

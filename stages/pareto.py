@@ -1,0 +1,46 @@
+"""``hev pareto``: merge the optimisers' fronts, keep the non-dominated, screen, rank, keep and pick."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from hevlib.io import read_table, write_json, write_parquet, write_text
+from hevlib.pareto import select_designs, table_schema
+from hevlib.plots import save_figure
+from hevlib.plots.pareto import distributions_figure, tradeoff_data, tradeoffs_figure
+from stages.cli import app
+from stages.common import PARAMS_OPTION, params_from, stage
+
+FRONTS_DIR = Path("data/pareto")
+MERGED = FRONTS_DIR / "merged.parquet"
+SELECTED = FRONTS_DIR / "selected.parquet"
+METRICS = Path("reports/pareto.json")
+PLOTS_DIR = Path("reports/plots/pareto")
+PLOT_DATA_DIR = Path("reports/pareto_tradeoffs")
+
+
+@app.command("pareto")
+@stage
+def pareto(params_path: str = PARAMS_OPTION) -> None:
+    """Merge data/pareto/<algo>.parquet, screen (params.screen), keep and pick; write the Pareto outputs."""
+    params = params_from(params_path)
+    if params.optimise is None or not params.optimise.algorithms:
+        raise ValueError("params.yaml: optimise.algorithms: needed to know which fronts to merge")
+    algos = list(params.optimise.algorithms)
+    fronts = {a: read_table(FRONTS_DIR / f"{a}.parquet") for a in algos}
+    result = select_designs(fronts, params.screen)
+    kept = result.merged[result.merged["kept"]]
+    figures = {"tradeoffs.png": tradeoffs_figure(kept, algos),
+               "distributions.png": distributions_figure(kept, algos)}
+    plot_data = {a: tradeoff_data(kept, a).to_csv(index=False) for a in algos}
+
+    write_parquet(MERGED, result.merged, table_schema(result.merged))
+    write_parquet(SELECTED, result.selected, table_schema(result.selected))
+    write_json(METRICS, result.summary)
+    for name, fig in figures.items():
+        save_figure(fig, PLOTS_DIR / name)
+    for a, text in plot_data.items():
+        write_text(PLOT_DATA_DIR / f"{a}.csv", text)
+    c = result.summary["counts"]
+    print(f"pareto: {c['merged']} designs, {c['nondominated']} non-dominated, {c['feasible']} feasible, "
+          f"{c['kept']} kept, {c['picked']} picked -> {SELECTED}")

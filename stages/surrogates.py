@@ -1,0 +1,120 @@
+"""``hev surrogates`` (fit and judge the BNN and the regressions) and ``hev heldout`` (SPEC 7)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from hevlib import doe
+from hevlib.design import OBJECTIVES, design_matrix
+from hevlib.io import write_json, write_text
+from stages.cli import app
+from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_setup, stage
+from stages.doe import DOE
+
+HELDOUT = Path("data/doe/heldout.parquet")
+MODELS_DIR = Path("models")
+METRICS = Path("reports/surrogate_metrics.json")
+SIGNS_JSON = Path("reports/regression_signs.json")
+SIGNS_MD = Path("reports/regression_signs.md")
+TRAINING_CSV = Path("reports/bnn_training.csv")
+PLOTS_DIR = Path("reports/plots")
+STUDY_COEFFICIENTS = Path("data/raw/paper/regression_equations.csv")
+
+
+def _heldout_record(cfg) -> dict:
+    return doe.heldout_record(cfg.design_space.space(), cfg.surrogate.heldout)
+
+
+def _simulate_heldout(cfg):
+    """Simulate the held-out Latin hypercube: (table, metadata)."""
+    h = cfg.surrogate.heldout
+    X = doe.lhs_designs(cfg.design_space.space(), h.n, h.seed)
+    sim, cycle = sizing_setup(cfg)
+    with progress_callback(f"held-out: {len(X)} designs on {cycle.name}") as cb:
+        table = doe.simulate_designs(sim, X, "heldout", cycle, batch_size=cfg.doe.batch_size, progress=cb)
+    return table, doe.run_metadata(cycle, cfg, **_heldout_record(cfg))
+
+
+@app.command("heldout")
+@stage
+def heldout_stage(params: str = PARAMS_OPTION) -> None:
+    """Simulate the held-out designs of params.surrogate.heldout; write data/doe/heldout.parquet."""
+    cfg = params_from(params)
+    table, meta = _simulate_heldout(cfg)
+    doe.write_doe(HELDOUT, table, meta)
+    typer.echo(f"heldout: {table.num_rows} designs -> {HELDOUT}")
+
+
+def _load_heldout(cfg):
+    """The held-out set: reused from HELDOUT when it matches params, else simulated (and written later)."""
+    if HELDOUT.exists():
+        df, meta = doe.read_doe(HELDOUT)
+        if doe.is_current(meta, cfg, **_heldout_record(cfg)):
+            return df, None
+        typer.echo(f"surrogates: {HELDOUT} was simulated with other params; simulating it again")
+    table, meta = _simulate_heldout(cfg)
+    return table.to_pandas(), (table, meta)
+
+
+def _xy(df, what: str):
+    keep = doe.finite_objectives(df)
+    if not keep.all():
+        typer.echo(f"surrogates: {what}: dropping {int((~keep).sum())} designs with non-finite objectives")
+    df = df[keep]
+    return design_matrix(df, what=what), df[list(OBJECTIVES)].to_numpy(dtype=float)
+
+
+@app.command("surrogates")
+@stage
+def surrogates_stage(params: str = PARAMS_OPTION) -> None:
+    """Fit the BNN and the regressions on the DOE; judge them; write models/, metrics and plots.
+
+    Reads params surrogate (all of it) and screen.speed_dev_max_kmh (which held-out designs count as
+    followers of the cycle in the metrics)."""
+    from hevlib.plots import save_figure
+    from hevlib.plots.surrogates import surrogate_figures
+    from hevlib.surrogates.evaluation import fit_surrogates, summary_table, training_curve_table
+    from hevlib.surrogates.regression import (
+        compare_signs,
+        read_study_coefficients,
+        sign_summary,
+        signs_markdown,
+    )
+
+    cfg = params_from(params)
+    doe_df, _ = doe.read_doe(DOE)
+    X, Y = _xy(doe_df, str(DOE))
+    study_coef = read_study_coefficients(STUDY_COEFFICIENTS)
+    heldout_df, new_heldout = _load_heldout(cfg)
+    Xh, Yh = _xy(heldout_df, str(HELDOUT))
+
+    with progress_callback(f"bnn: {cfg.surrogate.bnn.max_epochs} epochs") as cb:
+        study = fit_surrogates(X, Y, Xh, Yh, cfg.surrogate, cfg.design_space.space(),
+                               cfg.screen.speed_dev_max_kmh, progress=cb)
+    bnn, reg = study.models["bnn"], study.models["regression"]
+    metrics = study.metrics
+    signs = compare_signs(reg, study_coef)
+    figures = surrogate_figures(study)
+
+    if new_heldout is not None:
+        doe.write_doe(HELDOUT, *new_heldout)
+    bnn.save(MODELS_DIR / "bnn.pt")
+    reg.save(MODELS_DIR / "regression.json")
+    write_json(METRICS, metrics)
+    write_json(SIGNS_JSON, {"summary": sign_summary(signs), "coefficients": signs.to_dict(orient="records")})
+    write_text(SIGNS_MD, signs_markdown(signs))
+    write_text(TRAINING_CSV, training_curve_table(bnn.history_).to_csv(index=False, float_format="%.6g"))
+    for name, fig in figures.items():
+        save_figure(fig, PLOTS_DIR / name)
+
+    n = study.n_designs
+    offsets = dict(zip(OBJECTIVES, bnn.target_transform_.offset, strict=True))
+    logged = ", ".join(o + (f" (+{offsets[o]:.3g})" if offsets[o] else "") for o in bnn.log_targets) or "none"
+    typer.echo(f"surrogates: {n['train']} train / {n['test']} test / {n['heldout']} held-out designs "
+               f"({n['heldout_followers']} follow the cycle: speed_dev <= {cfg.screen.speed_dev_max_kmh:g} km/h); "
+               f"BNN log targets: {logged}; alpha={bnn.alpha_:.3g} beta={bnn.beta_:.3g} "
+               f"gamma={bnn.gamma_:.1f} of {bnn.n_weights_} weights after {bnn.epochs_} epochs")
+    typer.echo("held-out R^2 and Spearman rho, all held-out designs and the followers (fol.):\n"
+               + summary_table(metrics).to_string(float_format=lambda v: f"{v:.3f}"))

@@ -1,0 +1,77 @@
+"""``hev validate``: simulate the picks and both baselines on the validation cycles; write the report."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from hevlib.io import read_table, write_json, write_parquet, write_text
+from hevlib.plots import save_figure
+from hevlib.plots.validation import improvement_figure, traces_figure
+from hevlib.report import build_summary
+from hevlib.validation import (
+    cycle_notes,
+    load_cycles,
+    prius_design,
+    summarise,
+    traces,
+    validation_schema,
+    validation_table,
+)
+from stages.cli import app
+from stages.common import PARAMS_OPTION, params_from, stage
+
+SELECTED = Path("data/pareto/selected.parquet")
+PARETO_JSON = Path("reports/pareto.json")
+CYCLES_DIR = Path("data/cycles")
+COMPONENTS_DIR = Path("data/components")
+TABLE = Path("reports/validation.parquet")
+METRICS = Path("reports/validation.json")
+SUMMARY = Path("reports/summary.md")
+PLOTS_DIR = Path("reports/plots/validation")
+
+
+@app.command("validate")
+@stage
+def validate(params_path: str = PARAMS_OPTION) -> None:
+    """Simulate the picks and both baselines on params.validate.cycles; write the table, metrics, summary."""
+    params = params_from(params_path)
+    names = list(params.validation.cycles)
+    cycles = load_cycles(names, list(params.cycles.cycles), CYCLES_DIR)
+    selected = read_table(SELECTED)
+    if not PARETO_JSON.exists():
+        raise FileNotFoundError(f"{PARETO_JSON}: no such file; run `hev pareto` first")
+    pareto = json.loads(PARETO_JSON.read_text())
+    algos = list(pareto.get("by_algo", {}))  # the algorithms the pareto stage merged, in its order
+    prius_x = prius_design(params.baseline.prius)
+
+    from hevlib.simulate import Simulator  # heavy import, only when the stage runs
+
+    sim = Simulator.from_params(params, components_dir=str(COMPONENTS_DIR))
+    table = validation_table(sim, selected, cycles, prius_x)
+    summary = summarise(table, algos, names, params.baseline.conventional.p_eng_kw)
+
+    figures = {f"improvement_{c}.png": improvement_figure(
+        summary["improvement"] if c == names[0] else summary["by_cycle"][c]["improvement"], c) for c in names}
+    notes = cycle_notes(cycles)
+    best = summary["best_design"]
+    tr = traces(sim, selected, best, cycles[0], prius_x) if best is not None else None
+    if tr is not None:
+        figures[f"traces_{names[0]}.png"] = traces_figure(tr, names[0])
+    else:
+        notes.append("no time-trace plot: " + ("no picked design" if best is None
+                                               else "the simulator offers no traces (Simulator.trace)"))
+    plots = {"Objective trade-offs of the kept designs (sizing cycle)": "plots/pareto/tradeoffs.png",
+             "Distributions of the kept designs' objectives (sizing cycle)": "plots/pareto/distributions.png"}
+    plots.update({f"Improvement on {c}": f"plots/validation/improvement_{c}.png" for c in names})
+    if tr is not None:
+        caption = f"{names[0]} traces: best design {best} against both baselines"
+        plots[caption] = f"plots/validation/traces_{names[0]}.png"
+    text = build_summary(pareto, summary, table, selected, plots, notes)
+
+    write_parquet(TABLE, table, validation_schema())
+    write_json(METRICS, summary)
+    for name, fig in figures.items():
+        save_figure(fig, PLOTS_DIR / name)
+    write_text(SUMMARY, text)
+    print(f"validate: {summary['counts']['picked']} picks on {', '.join(names)} -> {METRICS}, {SUMMARY}")

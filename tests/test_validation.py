@@ -1,0 +1,216 @@
+"""Improvement table (sign convention, SOC points, not-applicable cases), validation table, summary, stage."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+import types
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_pareto import synthetic_front
+from typer.testing import CliRunner
+
+from hevlib.cycles import Cycle
+from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
+from hevlib.io import write_parquet
+from hevlib.params import ScreenParams
+from hevlib.pareto import select_designs
+from hevlib.report import build_summary
+from hevlib.validation import (
+    IMPROVEMENT_RESPONSES,
+    best_design,
+    improvement,
+    improvement_table,
+    prius_design,
+    summarise,
+    validation_schema,
+    validation_table,
+)
+
+REPO = Path(__file__).resolve().parents[1]
+
+CONVENTIONAL = {"m_veh": 1195.0, "fc": 8.0, "fc_soc_corrected": 8.0, "diff_soc": 0.0, "hc": 0.4, "co": 2.0,
+                "nox": 0.3, "v_max": 180.0, "f_max": 3.0, "eta_drivetrain": 0.2}
+PRIUS = {"m_veh": 1404.0, "fc": 4.5, "fc_soc_corrected": 4.6, "diff_soc": 0.02, "hc": 0.2, "co": 1.0,
+         "nox": 0.1, "v_max": 170.0, "f_max": 2.8, "eta_drivetrain": 0.3}
+
+
+class FakeSimulator:
+    """Deterministic stand-in for hevlib.simulate.Simulator: responses are simple functions of the design."""
+
+    calls: list = []
+
+    @classmethod
+    def from_params(cls, params, components_dir="data/components"):
+        return cls()
+
+    def _row(self, x, cycle, vehicle):
+        k = 1.0 if cycle.name == "ftp" else 0.8
+        if vehicle == "conventional":
+            base = dict(CONVENTIONAL)
+        elif vehicle == "prius":
+            base = dict(PRIUS)
+        else:
+            p_eng, p_mot, p_gen, i0, n_bat, n_r, n_s = x
+            base = {"m_veh": 900 + 3 * p_eng + n_bat, "fc": 2 + p_eng / 20, "diff_soc": 0.001 * n_bat,
+                    "hc": 0.1 + p_eng / 500, "co": 0.5 + p_eng / 100, "nox": 0.05 + p_gen / 1000,
+                    "v_max": 120 + p_mot, "f_max": 2 + p_mot / 60, "eta_drivetrain": 0.25 + i0 / 100}
+            base["fc_soc_corrected"] = base["fc"] + 0.5 * base["diff_soc"]
+        row = {r: float(base.get(r, 1.0)) for r in RESPONSES}
+        row["fc"] *= k
+        row["cycle_met"] = vehicle != "hybrid" or bool(x[0] > 40)
+        return row
+
+    def run(self, X, cycle, vehicle="hybrid", batch_size=1000, progress=None):
+        FakeSimulator.calls.append((vehicle, cycle.name, len(X)))
+        X = np.atleast_2d(X)
+        rows = [self._row(x, cycle, vehicle) for x in (X if vehicle == "hybrid" else X[:1])]
+        return pd.DataFrame(rows, columns=list(RESPONSES))
+
+    def trace(self, X, cycle, vehicle):
+        t = cycle.time_s
+        return pd.DataFrame({"time_s": t, "v_ref_mps": cycle.speed_mps, "v_mps": cycle.speed_mps * 0.98,
+                             "soc": np.full(len(t), 0.6), "fuel_g_s": np.full(len(t), 0.3)})
+
+
+def _cycle(name: str, n: int = 60) -> Cycle:
+    t = np.arange(n, dtype=float)
+    return Cycle(name, t, 10 * np.sin(np.pi * t / (n - 1)) ** 2, np.zeros(n))
+
+
+# ----------------------------------------------------------------------------------- improvement
+def test_improvement_sign_convention_on_a_hand_made_case():
+    # lower fc and higher v_max than the base: '+' for both
+    assert improvement("fc", [8.0], 10.0)[0] == pytest.approx(20.0)
+    assert improvement("v_max", [180.0], 150.0)[0] == pytest.approx(20.0)
+    assert improvement("eta_drivetrain", [0.3], 0.25)[0] == pytest.approx(20.0)
+    # worse: '-'
+    assert improvement("m_veh", [1300.0], 1000.0)[0] == pytest.approx(-30.0)
+    assert improvement("f_max", [2.0], 4.0)[0] == pytest.approx(-50.0)
+    # a negative base is divided by its magnitude: still '+' = better
+    assert improvement("fc", [-2.0], -1.0)[0] == pytest.approx(100.0)
+
+
+def test_soc_difference_is_in_soc_points_and_not_applicable_without_battery():
+    # design ends 3 SOC points less depleted than the Prius: +3 points (not a percentage of 0.05)
+    assert improvement("diff_soc", [0.02], 0.05)[0] == pytest.approx(3.0)
+    assert improvement("diff_soc", [0.02], -0.01)[0] == pytest.approx(-3.0)
+    assert np.isnan(improvement("diff_soc", [0.02], 0.0, base_has_battery=False)[0])
+    assert np.isnan(improvement("hc", [0.1], 0.0)[0])  # zero base: no division by zero
+
+
+def test_improvement_table_groups_by_algorithm_and_counts_shared_designs_for_each():
+    designs = pd.DataFrame({"algo": ["nsga3", "nsga3+moead", "moga"], "fc": [8.0, 6.0, 9.0],
+                            **{r: [1.0, 1.0, 1.0] for r in IMPROVEMENT_RESPONSES if r != "fc"}})
+    bases = {"conventional": pd.Series({**CONVENTIONAL, "fc": 10.0}),
+             "prius": pd.Series({**PRIUS, "fc": 5.0})}
+    table = improvement_table(designs, bases, ["nsga3", "moead", "moga"])
+    assert table["nsga3"]["vs_conventional"]["fc"] == pytest.approx(30.0)   # (20 + 40) / 2
+    assert table["moead"]["vs_conventional"]["fc"] == pytest.approx(40.0)
+    assert table["all"]["vs_conventional"]["fc"] == pytest.approx((20 + 40 + 10) / 3)
+    assert table["moga"]["vs_prius"]["fc"] == pytest.approx(-80.0)
+    assert table["all"]["vs_conventional"]["diff_soc"] is None
+    assert table["all"]["vs_prius"]["diff_soc"] == pytest.approx(100 * (0.02 - 1.0))
+    empty = improvement_table(designs.iloc[:0], bases, ["nsga3"])
+    assert empty["nsga3"]["vs_prius"]["fc"] is None
+
+
+# ---------------------------------------------------------------------------------- validation
+def _selected() -> pd.DataFrame:
+    X = np.array([[42.0, 31.0, 15.0, 3.93, 25, 78, 30], [30.0, 50.0, 20.0, 3.0, 40, 64, 24],
+                  [55.0, 40.0, 10.0, 2.5, 20, 78, 30]])
+    df = pd.DataFrame(X, columns=list(DESIGN_VARS))
+    df.insert(0, "algo", ["nsga3", "moead+nsga3", "moga"])
+    df.insert(0, "design_id", ["nsga3-1", "moead-4", "moga-0"])
+    return df
+
+
+def test_validation_table_has_one_row_per_vehicle_and_cycle(tmp_path):
+    prius_x = np.array([43.0, 31.0, 15.0, 3.93, 25, 78, 30])
+    table = validation_table(FakeSimulator(), _selected(), [_cycle("ftp"), _cycle("hwfet")], prius_x)
+    assert len(table) == 2 * (3 + 2)
+    assert list(table.columns) == ["vehicle", "algo", "cycle", *DESIGN_VARS, *RESPONSES]
+    conv = table[(table["vehicle"] == "conventional")]
+    assert conv[list(DESIGN_VARS)].isna().all().all() and (conv["algo"] == "baseline").all()
+    prius = table[(table["vehicle"] == "prius") & (table["cycle"] == "ftp")].iloc[0]
+    np.testing.assert_allclose(prius[list(DESIGN_VARS)].to_numpy(dtype=float), prius_x)
+    write_parquet(tmp_path / "v.parquet", table, validation_schema())  # schema matches exactly
+    back = pd.read_parquet(tmp_path / "v.parquet")
+    assert back["cycle_met"].dtype == bool and back["fc"].dtype == float
+    # moead-4 uses the least fuel but misses the cycle: the best is the thriftiest of those meeting it
+    assert best_design(table, "ftp") == "nsga3-1"
+
+
+def test_summary_reports_the_study_table_and_downsizing():
+    table = validation_table(FakeSimulator(), _selected(), [_cycle("ftp"), _cycle("hwfet")],
+                             np.array([43.0, 31.0, 15.0, 3.93, 25, 78, 30]))
+    s = summarise(table, ["nsga3", "moead", "moga"], ["ftp", "hwfet"], 70.0)
+    assert s["cycle"] == "ftp" and set(s["improvement"]) == {"nsga3", "moead", "moga", "all"}
+    assert set(s["improvement"]["all"]["vs_prius"]) == set(IMPROVEMENT_RESPONSES)
+    assert s["improvement"]["all"]["vs_conventional"]["diff_soc"] is None
+    fc = 2 + np.array([42.0, 30.0, 55.0]) / 20
+    assert s["improvement"]["all"]["vs_conventional"]["fc"] == pytest.approx(np.mean(100 * (8 - fc) / 8))
+    assert s["engine_downsizing_pct"]["all"] == pytest.approx(100 * (70 - np.mean([42, 30, 55])) / 70)
+    assert s["engine_downsizing_pct"]["nsga3"] == pytest.approx(100 * (70 - 36) / 70)
+    assert s["counts"]["by_algo"] == {"nsga3": 2, "moead": 1, "moga": 1}
+    assert s["counts"]["cycle_met"]["ftp"] == {"picked": 2, "conventional": True, "prius": True}
+    assert "hwfet" in s["by_cycle"] and "ftp" not in s["by_cycle"]
+    json.dumps(s)  # plain JSON types only
+    pareto = select_designs({"nsga3": synthetic_front(40, 1)},
+                            ScreenParams(n_keep=5, n_pick=3, speed_dev_max_kmh=100, mass_max_kg=2000)).summary
+    text = build_summary(pareto, s, table, _selected().assign(rank=[1, 2, 3]), {"Trade-offs": "plots/x.png"})
+    assert "| m_veh | % |" in text and "n/a" in text and "![Trade-offs](plots/x.png)" in text
+    assert "## Robustness check: hwfet" in text and "moga-0" in text and "conventional" in text
+
+
+def test_prius_design_follows_params_order():
+    from hevlib.params import PriusParams
+
+    np.testing.assert_array_equal(prius_design(PriusParams()), [43.0, 31.0, 15.0, 3.93, 25, 78, 30])
+
+
+# --------------------------------------------------------------------------------------- stage
+def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeypatch):
+    from stages.cli import app
+
+    shutil.copy(REPO / "params.yaml", tmp_path / "params.yaml")
+    monkeypatch.chdir(tmp_path)
+    fake = types.ModuleType("hevlib.simulate")
+    fake.Simulator = FakeSimulator
+    monkeypatch.setitem(sys.modules, "hevlib.simulate", fake)
+    runner = CliRunner()
+    assert runner.invoke(app, ["validate"]).exit_code == 1  # nothing there yet: one-line error
+    for name in ("ftp", "hwfet"):
+        _cycle(name).to_parquet(f"data/cycles/{name}.parquet")
+    res = select_designs({"nsga3": synthetic_front(40, 1), "moead": synthetic_front(30, 2),
+                          "moga": synthetic_front(30, 3)},
+                         ScreenParams(n_keep=10, n_pick=4, speed_dev_max_kmh=100, mass_max_kg=2000))
+    write_parquet("data/pareto/selected.parquet", res.selected)
+    Path("reports").mkdir()
+    Path("reports/pareto.json").write_text(json.dumps(res.summary))
+    out = runner.invoke(app, ["validate"])
+    assert out.exit_code == 0, out.output
+    table = pd.read_parquet("reports/validation.parquet")
+    assert len(table) == 2 * (len(res.selected) + 2)
+    metrics = json.loads(Path("reports/validation.json").read_text())
+    assert metrics["improvement"]["all"]["vs_conventional"]["diff_soc"] is None
+    summary = Path("reports/summary.md").read_text()
+    for png in ("improvement_ftp.png", "improvement_hwfet.png", "traces_ftp.png"):
+        assert Path(f"reports/plots/validation/{png}").stat().st_size > 0
+        assert f"plots/validation/{png}" in summary
+    assert set(OBJECTIVES) - {"accel_dev", "e_l", "speed_dev"} <= {r for r in IMPROVEMENT_RESPONSES}
+
+
+def test_summary_says_so_when_nothing_passed_screening():
+    prius_x = np.array([43.0, 31.0, 15.0, 3.93, 25, 78, 30])
+    table = validation_table(FakeSimulator(), _selected().iloc[:0], [_cycle("ftp")], prius_x)
+    s = summarise(table, ["nsga3"], ["ftp"], 70.0)
+    assert s["improvement"]["nsga3"]["vs_prius"]["fc"] is None and s["best_design"] is None
+    res = select_designs({"nsga3": synthetic_front(20, 1)}, ScreenParams(speed_dev_max_kmh=1e-6))
+    assert res.summary["counts"]["picked"] == 0
+    text = build_summary(res.summary, s, table, res.selected, {})
+    assert "No design passed the screening" in text and "`speed_dev_max`" in text
