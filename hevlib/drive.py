@@ -124,6 +124,53 @@ def _clean(x: float) -> float:
 
 
 @njit(cache=True, inline="always")
+def _book_engine(o, fuel, hc, co, nox, p_shaft, lhv_j_per_g, dt):
+    """Fuel, emissions and the engine's energy terms of one step."""
+    o[L.O_FUEL_G] += fuel * dt
+    o[L.O_HC_G] += hc * dt
+    o[L.O_CO_G] += co * dt
+    o[L.O_NOX_G] += nox * dt
+    o[L.O_E_FUEL] += fuel * lhv_j_per_g * dt
+    o[L.O_E_ENG_SHAFT] += p_shaft * dt
+    o[L.O_E_LOSS_ENG] += (fuel * lhv_j_per_g - p_shaft) * dt
+
+
+@njit(cache=True, inline="always")
+def _book_wheel(o, f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch):
+    """Work at the wheels (driveline, friction brakes) against road loads, grade and inertia; for a
+    force-limited step also the residual of its speed fixed point."""
+    fa, fr, fg, fx = road_force(v_avg, sn, cs, ch)
+    w_wheel = f_del * v_disp * dt
+    if w_wheel >= 0.0:
+        o[L.O_E_TRACTION] += w_wheel
+    else:
+        o[L.O_E_REGEN] -= w_wheel
+    o[L.O_E_BRAKE] -= f_brake * v_avg * dt
+    o[L.O_E_ROAD] += (fa + fr + fx) * v_avg * dt
+    o[L.O_E_GRADE] += fg * v_avg * dt
+    if limited:
+        # driveline work at v_disp against the motion it bought
+        a = 2.0 * (v_avg - v0) / dt
+        o[L.O_E_MISMATCH] += w_wheel - (ch.m_eff * a + fa + fr + fg + fx) * v_avg * dt
+
+
+@njit(cache=True, inline="always")
+def _book_following(o, v_ref_now, v_ref_next, v0, v_next, v_avg, dt):
+    """Cycle-following statistics of one step: acceleration shortfall, speed error, distances."""
+    a_req = (v_ref_next - v_ref_now) / dt       # what the cycle asks for this step
+    if a_req > 0.0:
+        o[L.O_ACC_REQ] += a_req
+        o[L.O_ACC_SHORT] += _clean(a_req - (v_next - v0) / dt)
+    err = _clean(abs(v_ref_next - v_next))
+    o[L.O_SPEED_ERR_SUM] += err
+    o[L.O_MAX_SPEED_ERR] = max(o[L.O_MAX_SPEED_ERR], err)
+    o[L.O_DIST_M] += v_avg * dt
+    o[L.O_DIST_REF_M] += 0.5 * (v_ref_now + v_ref_next) * dt
+    o[L.O_N_STEPS] += 1.0
+    return a_req
+
+
+@njit(cache=True, inline="always")
 def _over(x: float, cap: float) -> bool:
     return x > cap * (1.0 + LIMIT_TOL) + 1e-12
 
@@ -199,8 +246,7 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
         if stationary and not key_on[t]:
             # prescribed key-off (e.g. the FTP soak): nothing runs, no accessory load
             eng_on = False
-            o[L.O_N_STEPS] += 1.0
-            o[L.O_SPEED_ERR_SUM] += v_ref_next
+            _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt)
             t_state += dt
             if record:
                 tr[t + 1, L.T_SOC] = soc
@@ -255,14 +301,7 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
             o[L.O_ENG_ON_STEPS] += 1.0
         p_shaft = st.t_e * st.w_e
         # ---- energy accounting (J)
-        fa, fr, fg, fx = road_force(v_avg, sn, cs, ch)
-        o[L.O_FUEL_G] += fuel * dt
-        o[L.O_HC_G] += hc * dt
-        o[L.O_CO_G] += co * dt
-        o[L.O_NOX_G] += nox * dt
-        o[L.O_E_FUEL] += fuel * c.lhv_j_per_g * dt
-        o[L.O_E_ENG_SHAFT] += p_shaft * dt
-        o[L.O_E_LOSS_ENG] += (fuel * c.lhv_j_per_g - p_shaft) * dt
+        _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, dt)
         o[L.O_E_BATT] += p_chem * dt
         o[L.O_E_LOSS_BATT] += (p_chem - st.p_batt) * dt
         o[L.O_E_LOSS_MOT] += (st.p_m_e - st.t_m * st.w_r) * dt
@@ -273,29 +312,8 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
         o[L.O_E_LOSS_FD] += (st.t_r * st.w_r - st.f_del * v_disp) * dt
         o[L.O_E_ACC] += st.p_acc * dt
         o[L.O_E_ACC_SHED] += (d.p_acc_w - st.p_acc) * dt
-        w_wheel = st.f_del * v_disp * dt
-        if w_wheel >= 0.0:
-            o[L.O_E_TRACTION] += w_wheel
-        else:
-            o[L.O_E_REGEN] -= w_wheel
-        o[L.O_E_BRAKE] -= f_brake * v_avg * dt
-        o[L.O_E_ROAD] += (fa + fr + fx) * v_avg * dt
-        o[L.O_E_GRADE] += fg * v_avg * dt
-        if limited:
-            # residual of a limited step: driveline work at v_disp vs the motion it bought
-            a = 2.0 * (v_avg - v0) / dt
-            o[L.O_E_MISMATCH] += w_wheel - (ch.m_eff * a + fa + fr + fg + fx) * v_avg * dt
-        # ---- cycle-following statistics
-        a_req = (v_ref_next - v_ref[t]) / dt       # what the cycle asks for this step
-        if a_req > 0.0:
-            o[L.O_ACC_REQ] += a_req
-            o[L.O_ACC_SHORT] += _clean(a_req - (v_next - v0) / dt)
-        err = _clean(abs(v_ref_next - v_next))
-        o[L.O_SPEED_ERR_SUM] += err
-        o[L.O_MAX_SPEED_ERR] = max(o[L.O_MAX_SPEED_ERR], err)
-        o[L.O_DIST_M] += v_avg * dt
-        o[L.O_DIST_REF_M] += 0.5 * (v_ref[t] + v_ref_next) * dt
-        o[L.O_N_STEPS] += 1.0
+        _book_wheel(o, st.f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch)
+        a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt)
         soc_lo, soc_hi = min(soc_lo, soc), max(soc_hi, soc)
         # ---- limits
         bad = 0.0
@@ -372,8 +390,7 @@ def _conventional_one(row, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesi
         v_tgt = min(v_ref_next, v_lim)
         stationary = v0 <= 1e-9 and v_tgt <= 1e-9
         if stationary and not key_on[t]:
-            o[L.O_N_STEPS] += 1.0
-            o[L.O_SPEED_ERR_SUM] += v_ref_next
+            _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt)
             if record:
                 tr[t + 1, L.T_GRADE] = gr
             continue
@@ -401,36 +418,13 @@ def _conventional_one(row, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesi
         v_next = max(2.0 * v_avg - v0, 0.0)
         fuel, hc, co, nox = rates(st.w_e, max(st.t_e, 0.0), d.s_eng, E)
         p_shaft = st.t_e * st.w_e
-        fa, fr, fg, fx = road_force(v_avg, sn, cs, ch)
-        o[L.O_FUEL_G] += fuel * dt
-        o[L.O_HC_G] += hc * dt
-        o[L.O_CO_G] += co * dt
-        o[L.O_NOX_G] += nox * dt
-        o[L.O_E_FUEL] += fuel * c.lhv_j_per_g * dt
-        o[L.O_E_ENG_SHAFT] += p_shaft * dt
-        o[L.O_E_LOSS_ENG] += (fuel * c.lhv_j_per_g - p_shaft) * dt
+        _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, dt)
         o[L.O_E_ACC] += d.p_acc_w * dt
         o[L.O_E_LOSS_GB] += st.loss_gb_w * dt
         o[L.O_E_LOSS_CLUTCH] += st.loss_clutch_w * dt
-        w_wheel = st.f_del * v_disp * dt
-        o[L.O_E_TRACTION] += w_wheel
-        o[L.O_E_BRAKE] -= f_brake * v_avg * dt
-        o[L.O_E_ROAD] += (fa + fr + fx) * v_avg * dt
-        o[L.O_E_GRADE] += fg * v_avg * dt
-        if limited:
-            a = 2.0 * (v_avg - v0) / dt
-            o[L.O_E_MISMATCH] += w_wheel - (ch.m_eff * a + fa + fr + fg + fx) * v_avg * dt
+        _book_wheel(o, st.f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch)
         o[L.O_ENG_ON_STEPS] += 1.0
-        a_req = (v_ref_next - v_ref[t]) / dt       # what the cycle asks for this step
-        if a_req > 0.0:
-            o[L.O_ACC_REQ] += a_req
-            o[L.O_ACC_SHORT] += _clean(a_req - (v_next - v0) / dt)
-        err = _clean(abs(v_ref_next - v_next))
-        o[L.O_SPEED_ERR_SUM] += err
-        o[L.O_MAX_SPEED_ERR] = max(o[L.O_MAX_SPEED_ERR], err)
-        o[L.O_DIST_M] += v_avg * dt
-        o[L.O_DIST_REF_M] += 0.5 * (v_ref[t] + v_ref_next) * dt
-        o[L.O_N_STEPS] += 1.0
+        a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt)
         if _over(st.w_e, d.w_e_max) or _over(st.t_e, max_torque(st.w_e, d.s_eng, E)):
             o[L.O_LIMIT_VIOLATIONS] += 1.0
         if record:
