@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import typer
+
 from hevlib.io import read_table, write_json, write_parquet, write_text
 from hevlib.plots import save_figure
 from hevlib.plots.validation import improvement_figure, traces_figure
@@ -19,12 +21,10 @@ from hevlib.validation import (
     validation_table,
 )
 from stages.cli import app
-from stages.common import PARAMS_OPTION, params_from, stage
+from stages.common import CYCLES_DIR, PARAMS_OPTION, params_from, simulator, stage
 
 SELECTED = Path("data/pareto/selected.parquet")
 PARETO_JSON = Path("reports/pareto.json")
-CYCLES_DIR = Path("data/cycles")
-COMPONENTS_DIR = Path("data/components")
 TABLE = Path("reports/validation.parquet")
 METRICS = Path("reports/validation.json")
 SUMMARY = Path("reports/summary.md")
@@ -45,9 +45,7 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     algos = list(pareto.get("by_algo", {}))  # the algorithms the pareto stage merged, in its order
     prius_x = prius_design(params.baseline.prius)
 
-    from hevlib.simulate import Simulator  # heavy import, only when the stage runs
-
-    sim = Simulator.from_params(params, components_dir=str(COMPONENTS_DIR))
+    sim = simulator(params)
     table = validation_table(sim, selected, cycles, prius_x)
     summary = summarise(table, algos, names, params.baseline.conventional.p_eng_kw)
 
@@ -74,4 +72,4 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     for name, fig in figures.items():
         save_figure(fig, PLOTS_DIR / name)
     write_text(SUMMARY, text)
-    print(f"validate: {summary['counts']['picked']} picks on {', '.join(names)} -> {METRICS}, {SUMMARY}")
+    typer.echo(f"validate: {summary['counts']['picked']} picks on {', '.join(names)} -> {METRICS}, {SUMMARY}")
