@@ -332,15 +332,12 @@ def test_front_figure_draws(tmp_path):
     assert (tmp_path / "f.png").stat().st_size > 10_000
 
 
-@pytest.mark.skipif(not (ROOT / "data/components/library.json").exists()
-                    or not (ROOT / "data/cycles/udds.parquet").exists(),
-                    reason="needs the components and cycles stages' outputs")
-def test_resimulation_with_the_simulator_equals_a_direct_call(params):
-    from hevlib.cycles import Cycle
+def test_resimulation_with_the_simulator_equals_a_direct_call(params, lib):
+    from hevlib.cycles import build_cycles
     from hevlib.simulate import Simulator
 
-    sim = Simulator.from_params(params, components_dir=ROOT / "data/components")
-    cycle = Cycle.from_parquet(ROOT / f"data/cycles/{params.cycles.sizing}.parquet", name=params.cycles.sizing)
+    sim = Simulator(lib, params)
+    cycle = build_cycles(params.cycles)[params.cycles.sizing]
     space = params.design_space.space()
     problem = HevProblem(AnalyticSurrogate(), space, sim.mass_kg, params.baseline.conventional.test_mass_kg)
     result = optimise_and_resimulate(problem, "moga", SMALL["moga"], lambda X: sim.run(X, cycle), _hv_settings())
