@@ -3,9 +3,10 @@
 Every function takes objective matrices in minimisation form (``(n, m)``, all minimised; see
 :func:`hevlib.optimise.to_minimisation`). Fronts of different algorithms are only comparable on a
 common :class:`Normalisation` and a common reference point, so both are arguments, never derived
-from the front being measured. The optimise stage takes the normalisation from the DOE's simulated
-objectives (:meth:`Normalisation.from_points` over ``data/doe/doe.parquet``): a function of the DOE
-and params only, identical for the three algorithms.
+from the front being measured. The optimise stage takes the normalisation from every design simulated
+before optimising (:meth:`Normalisation.from_points` over ``data/doe/doe.parquet`` and the held-out
+Latin hypercube ``data/doe/heldout.parquet``): a function of the DOE, the held-out set and params only,
+identical for the three algorithms.
 """
 
 from __future__ import annotations

@@ -503,7 +503,8 @@ class HvSettings:
 
 
 def doe_normalisation(doe: pd.DataFrame, *, what: str = "data/doe/doe.parquet") -> Normalisation:
-    """The common normalisation: ideal and nadir of the DOE's simulated objectives in minimisation form."""
+    """The common normalisation: ideal and nadir of simulated objectives (the DOE and the held-out set)
+    in minimisation form."""
     missing = [k for k in OBJECTIVES if k not in doe.columns]
     if missing:
         raise ValueError(f"{what}: missing objective column(s) {', '.join(missing)}")
@@ -620,7 +621,7 @@ def front_report(front: Front, table: pd.DataFrame, hv: HvSettings, *, settings:
         "surrogate_misleads_most": ranked[:n_misleading],
         "hypervolume_settings": {
             "space": "simulated objectives, minimisation form, (F - ideal) / (nadir - ideal)",
-            "normalisation": "ideal/nadir of the DOE's simulated objectives",
+            "normalisation": "ideal/nadir of the simulated DOE and held-out designs (shared by all algorithms)",
             "reference": hv.reference, "n_samples": hv.n_samples, "seed": hv.seed, **hv.norm.to_dict(),
         },
         "settings": {**settings.model_dump(), **front.settings},

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pandas as pd
 import typer
 
 from hevlib.io import read_table, write_json, write_parquet
@@ -13,6 +14,7 @@ from hevlib.plots.fronts import front_figure
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, sizing_setup, stage
 from stages.doe import DOE
+from stages.surrogates import HELDOUT
 
 MODELS_DIR = Path("models")
 FRONTS_DIR = Path("data/pareto")
@@ -35,7 +37,10 @@ def optimise_stage(algo: str = typer.Argument(..., help=f"one of {', '.join(ALGO
                          f"(configured: {', '.join(cfg.optimise.algorithms) or 'none'})")
     settings = cfg.optimise.algorithms[algo]
     o = cfg.optimise
-    hv = HvSettings(doe_normalisation(read_table(DOE), what=str(DOE)), o.hv_reference, o.hv_samples, o.hv_seed)
+    # common normalisation of all three algorithms: the range of every simulated design so far (DOE and
+    # the held-out Latin hypercube, which spans the whole design space)
+    simulated = pd.concat([read_table(DOE), read_table(HELDOUT)], ignore_index=True)
+    hv = HvSettings(doe_normalisation(simulated, what=f"{DOE} + {HELDOUT}"), o.hv_reference, o.hv_samples, o.hv_seed)
     surrogate = load_surrogate(settings.surrogate, models_dir=MODELS_DIR)
     sim, cycle = sizing_setup(cfg)
     space = cfg.design_space.space()
