@@ -287,11 +287,13 @@ class Simulator:
             "v_max": res.perf[:, 2],
             "f_max": res.perf[:, 0],
             "fc_soc_corrected": 100.0 * (fuel_l + fuel_equiv_l) / dist_km,
-            "eta_drivetrain": o["e_traction_j"].to_numpy() / np.where(in_energy > 0, in_energy, np.nan),
+            # no energy in (never started, never drew on the battery): no tractive energy out either
+            "eta_drivetrain": np.where(in_energy > 0, o["e_traction_j"].to_numpy()
+                                       / np.where(in_energy > 0, in_energy, 1.0), 0.0),
             "t_0_100_s": res.perf[:, 1],
             "cycle_met": o["max_speed_err_mps"].to_numpy() * 3.6 <= sim.cycle_met_tolerance_kmh,
         })
-        bad = r[list(OBJECTIVES)].isna().any(axis=1)
+        bad = r[list(OBJECTIVES) + ["fc_soc_corrected", "eta_drivetrain"]].isna().any(axis=1)
         if bad.any():
             i = int(np.argmax(bad.to_numpy()))
             col = r.columns[r.iloc[i].isna()][0]

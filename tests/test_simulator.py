@@ -289,3 +289,53 @@ def test_unknown_vehicle_is_rejected(sim, cycles):
 def test_out_names_cover_the_layout():
     assert len(OUT_NAMES) == len(set(OUT_NAMES))
     assert len(DESIGN_VARS) == 7
+
+
+# ------------------------------------------------------------------------------- hev simulate
+@pytest.fixture()
+def stage_dir(tmp_path, monkeypatch, lib, params, root):
+    """A working folder holding what `hev simulate` reads: data/cycles and data/components."""
+    from hevlib.cycles import write_cycles
+
+    monkeypatch.chdir(tmp_path)
+    write_cycles(build_cycles(params.cycles), tmp_path / "data/cycles", tmp_path / "reports/cycles.json")
+    lib.save(tmp_path / "data/components")
+    (tmp_path / "params.yaml").write_text((root / "params.yaml").read_text())
+    return tmp_path
+
+
+def test_hev_simulate_writes_inputs_and_every_response(stage_dir):
+    from typer.testing import CliRunner
+
+    from stages.cli import app
+
+    pd.DataFrame([PRIUS, [50, 50, 25, 3.93, 40, 78, 30]], columns=list(DESIGN_VARS)).to_csv("d.csv", index=False)
+    res = CliRunner().invoke(app, ["simulate", "--designs", "d.csv", "--cycle", "udds", "--grade", "0",
+                                   "--out", "out.parquet"])
+    assert res.exit_code == 0, res.output
+    out = pd.read_parquet("out.parquet")
+    assert len(out) == 2 and set(DESIGN_VARS) <= set(out.columns) and set(RESPONSES) <= set(out.columns)
+    assert (out["grade"] == 0).all() and out["cycle_met"].all()
+    res = CliRunner().invoke(app, ["simulate", "--vehicle", "conventional", "--cycle", "ftp", "--out", "c.csv"])
+    assert res.exit_code == 0, res.output
+    conv = pd.read_csv("c.csv")
+    assert len(conv) == 1 and conv.loc[0, "vehicle"] == "conventional" and 6.5 < conv.loc[0, "fc"] < 10
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--designs", "bad.csv", "--cycle", "ftp"], "p_eng_kw"),
+    (["--designs", "d.csv", "--cycle", "mars"], "--cycle"),
+    (["--designs", "d.csv", "--cycle", "ftp", "--vehicle", "truck"], "--vehicle"),
+    (["--designs", "missing.csv", "--cycle", "ftp"], "missing.csv"),
+])
+def test_hev_simulate_rejects_bad_input_with_one_line_and_no_output(stage_dir, args, message):
+    from typer.testing import CliRunner
+
+    from stages.cli import app
+
+    pd.DataFrame([PRIUS], columns=list(DESIGN_VARS)).to_csv("d.csv", index=False)
+    pd.DataFrame([[90, 40, 20, 3.0, 30, 78, 30]], columns=list(DESIGN_VARS)).to_csv("bad.csv", index=False)
+    res = CliRunner().invoke(app, ["simulate", *args, "--out", "out.csv"])
+    assert res.exit_code == 1
+    assert message in res.output and res.output.strip().count("\n") == 0
+    assert not (stage_dir / "out.csv").exists()
