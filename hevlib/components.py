@@ -24,9 +24,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from hevlib.io import atomic_path, read_table, write_json
+from hevlib.io import atomic_path, read_table, read_yaml_mapping, write_json
 from hevlib.powertrain.lookup import interp_map
 
 RPM = np.pi / 30.0  # rad/s per rpm
@@ -39,15 +38,7 @@ def _ro(a) -> np.ndarray:
 
 
 def _read_yaml(path: Path) -> dict:
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: component file missing")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        raise ValueError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
-    if not isinstance(data, dict):
-        raise ValueError(f"{path}: not a component mapping")
-    return data
+    return read_yaml_mapping(path, what="component file")
 
 
 def _need(data: dict, key: str, path: Path):

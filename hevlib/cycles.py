@@ -18,9 +18,8 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
-import yaml
 
-from hevlib.io import write_json, write_parquet
+from hevlib.io import read_yaml_mapping, write_json, write_parquet
 
 if TYPE_CHECKING:
     from hevlib.params import CyclesParams
@@ -216,12 +215,9 @@ def read_key_off_intervals(raw_dir: str | Path) -> dict[str, list[tuple[float, f
     path = Path(raw_dir) / "cycles.yaml"
     if not path.exists():
         return {}
-    try:
-        meta = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        raise CycleError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
+    meta = read_yaml_mapping(path, what="cycle metadata file", error=CycleError, empty_ok=True)
     out = {}
-    for key, entry in ((meta or {}).get("cycles") or {}).items():
+    for key, entry in (meta.get("cycles") or {}).items():
         try:
             intervals = entry.get("key_off_intervals_s") or []
             out[str(entry["file"])] = [(float(a), float(b)) for a, b in intervals]

@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
+import yaml
 
 _UMASK = os.umask(0)
 os.umask(_UMASK)
@@ -77,6 +78,24 @@ def save_with(path: str | os.PathLike, writer: Callable[[Path], None]) -> None:
     """Atomically write ``path`` with a callable that writes to the temp path it gets (plots, torch)."""
     with atomic_path(path) as tmp:
         writer(tmp)
+
+
+def read_yaml_mapping(path: str | os.PathLike, *, what: str, error: type[Exception] = ValueError,
+                      missing_error: type[Exception] = FileNotFoundError, empty_ok: bool = False) -> dict:
+    """A YAML file whose top level is a mapping, with one-line errors naming the file (``what``: what
+    the file is, for the messages). ``empty_ok``: an empty file reads as ``{}``."""
+    path = Path(path)
+    if not path.exists():
+        raise missing_error(f"{path}: no such {what}")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        raise error(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
+    if data is None and empty_ok:
+        return {}
+    if not isinstance(data, dict):
+        raise error(f"{path}: top level must be a mapping ({what})")
+    return data
 
 
 def write_table(path: str | os.PathLike, table: pd.DataFrame, *, float_format: str | None = None) -> None:

@@ -10,10 +10,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES, DesignSpace
+from hevlib.io import read_yaml_mapping
 
 
 class ParamsError(ValueError):
@@ -333,15 +333,7 @@ def parse_params(data: dict, source: str = "params.yaml") -> Params:
 
 def load_params(path: str | Path = "params.yaml") -> Params:
     """Read and validate the params file; raise ParamsError (one line naming the key) on any problem."""
-    path = Path(path)
-    if not path.exists():
-        raise ParamsError(f"{path}: no such params file")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        raise ParamsError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
-    if not isinstance(data, dict):
-        raise ParamsError(f"{path}: top level must be a mapping of stage groups")
+    data = read_yaml_mapping(path, what="params file", error=ParamsError, missing_error=ParamsError)
     return parse_params(data, str(path))
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import yaml
 
+from hevlib.io import read_yaml_mapping
 from hevlib.params import ParamsError, parse_params
 
 PROFILES_DIR = Path("profiles")
@@ -38,10 +39,9 @@ def load_profile(name: str, params_path: str | Path = "params.yaml", profiles_di
     if not path.exists():
         known = sorted(p.stem for p in Path(profiles_dir).glob("*.yaml"))
         raise FileNotFoundError(f"{path}: no such profile (known: {', '.join(known) or 'none'})")
-    overrides = yaml.safe_load(path.read_text()) or {}
-    if not isinstance(overrides, dict):
-        raise ParamsError(f"{path}: must map dotted params keys to values")
-    base = yaml.safe_load(Path(params_path).read_text())
+    overrides = read_yaml_mapping(path, what="profile (dotted params keys to values)", error=ParamsError,
+                                  empty_ok=True)
+    base = read_yaml_mapping(params_path, what="params file", error=ParamsError, missing_error=ParamsError)
     parse_params(apply_overrides(base, overrides))
     return overrides
 

@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
+from hevlib.io import read_yaml_mapping
 
 
 @dataclass(frozen=True)
@@ -72,12 +72,7 @@ def flatten(obj, prefix: str = "") -> dict[str, object]:
 
 def load_tolerances(path: str | Path) -> dict[str, list[Rule]]:
     """File glob -> ordered rules; a malformed file fails with one line naming the entry."""
-    path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: no such tolerance file")
-    data = yaml.safe_load(path.read_text()) or {}
-    if not isinstance(data, dict):
-        raise ValueError(f"{path}: must map metrics files to rules")
+    data = read_yaml_mapping(path, what="tolerance file (metrics files to rules)", empty_ok=True)
     rules: dict[str, list[Rule]] = {}
     for file_glob, entries in data.items():
         if not isinstance(entries, dict):

@@ -164,7 +164,7 @@ def test_load_errors_name_the_file(lib, tmp_path):
 
 
 def test_raw_component_errors_name_the_file(tmp_path, raw):
-    with pytest.raises(FileNotFoundError, match="FC_NONE.yaml: component file missing"):
+    with pytest.raises(FileNotFoundError, match="FC_NONE.yaml: no such component file"):
         load_engine(tmp_path / "FC_NONE.yaml")
     bad = tmp_path / "FC_BAD.yaml"
     source = _raw(raw, "FC_PRIUS_JPN.yaml")
