@@ -173,7 +173,7 @@ def _less_circulation(t_e: float, w_g: float, p_m_e: float, p_dis: float, d: Spl
     accessory load is shed. Returns (t_e, t_g, ring torque from the engine, p_g_e, p_acc)."""
     k = d.n_r / d.n_s
     lo, hi = 0.0, t_e
-    for _ in range(40):
+    for _ in range(24):
         mid = 0.5 * (lo + hi)
         if p_m_e + electric_power(-mid / (1.0 + k), w_g, d.s_gen, G) + d.p_acc_w > p_dis:
             hi = mid
