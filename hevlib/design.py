@@ -80,6 +80,11 @@ class DesignSpace:
         return x
 
 
+def design_vector(source) -> np.ndarray:
+    """The (7,) design vector of anything holding the seven variables as attributes (a params group)."""
+    return np.array([float(getattr(source, v)) for v in DESIGN_VARS])
+
+
 def design_matrix(table: pd.DataFrame, *, what: str = "designs") -> np.ndarray:
     """The (n, 7) design matrix from a table with the seven design-variable columns."""
     missing = [v for v in DESIGN_VARS if v not in table.columns]

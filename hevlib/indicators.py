@@ -1,7 +1,7 @@
 """Quality indicators of objective fronts: normalisation, hypervolume (Monte Carlo and exact), IGD.
 
 Every function takes objective matrices in minimisation form (``(n, m)``, all minimised; see
-:func:`hevlib.optimise.to_minimisation`). Fronts of different algorithms are only comparable on a
+:func:`hevlib.pareto.to_minimisation`). Fronts of different algorithms are only comparable on a
 common :class:`Normalisation` and a common reference point, so both are arguments, never derived
 from the front being measured. The optimise stage takes the normalisation from every design simulated
 before optimising (:meth:`Normalisation.from_points` over ``data/doe/doe.parquet`` and the held-out

@@ -1,7 +1,7 @@
 """Many-objective sizing on a surrogate (SPEC section 8): problem, algorithms, fronts, re-simulation.
 
-- :class:`HevProblem` -- the seven design variables, the eleven objectives in minimisation form (the
-  only place maximised objectives are negated is :func:`to_minimisation`) and one inequality
+- :class:`HevProblem` -- the seven design variables, the eleven objectives in minimisation form (maximised
+  objectives are negated by :func:`hevlib.pareto.to_minimisation`, the one place that does it) and one inequality
   constraint, the exact test mass at most ``m_veh_max_kg`` (``G = m_veh / m_veh_max - 1 <= 0``), from
   an analytic mass function, never a surrogate, so every reported design honours it exactly.
 - :class:`IntegerRepair` -- the one repair that keeps ``n_bat``, ``n_r``, ``n_s`` integer; pymoo
@@ -54,24 +54,18 @@ from hevlib.design import (
     INTEGER_MASK,
     OBJECTIVES,
     RESPONSES,
-    SENSE,
     DesignSpace,
     buildable_gear_sets,
     nearest_gear_set,
 )
 from hevlib.indicators import Normalisation, hypervolume_mc
 from hevlib.params import AlgoParams
-from hevlib.pareto import nondominated_mask
+from hevlib.pareto import nondominated_mask, to_minimisation
 
 #: Distribution indices of simulated binary crossover and polynomial mutation (Deb's usual values).
 SBX_ETA = 15.0
 PM_ETA = 20.0
 ALGORITHMS = ("nsga3", "moead", "moga")
-
-
-def to_minimisation(Y: np.ndarray) -> np.ndarray:
-    """Objectives (..., 11) in natural units -> minimisation form (v_max, f_max negated); its own inverse."""
-    return np.asarray(Y, dtype=float) * SENSE
 
 
 # --------------------------------------------------------------------------------------- problem
@@ -276,6 +270,12 @@ def estimate_normalisation(problem: Problem, n_samples: int, seed) -> Normalisat
     return Normalisation.from_points(F)
 
 
+def _settings_normalisation(problem: Problem, settings: AlgoParams) -> Normalisation:
+    """:func:`estimate_normalisation` on ``settings.norm_samples`` designs, seeded from (but independent
+    of) the algorithm's own seed."""
+    return estimate_normalisation(problem, settings.norm_samples, np.random.SeedSequence(settings.seed).spawn(1)[0])
+
+
 def _operators(problem: Problem, settings: AlgoParams) -> dict:
     """Study operators: SBX with crossover probability ``crossover_prob`` per mating, polynomial mutation
     of every offspring with probability ``mutation_prob`` per variable; the integer repair."""
@@ -373,7 +373,7 @@ def moead(problem: Problem, settings: AlgoParams) -> Front:
         raise ValueError(f"optimise.algorithms.moead.n_neighbors: {settings.n_neighbors} exceeds pop_size "
                          f"{settings.pop_size}")
     t0 = time.perf_counter()
-    norm = estimate_normalisation(problem, settings.norm_samples, np.random.SeedSequence(settings.seed).spawn(1)[0])
+    norm = _settings_normalisation(problem, settings)
     ref = reference_directions(problem.n_obj, n_points=settings.pop_size, seed=settings.seed)
     decomposition = PBI() if settings.decomposition == "pbi" else Tchebicheff()
     algorithm = ParallelMOEAD(ref, n_neighbors=settings.n_neighbors, decomposition=decomposition,
@@ -449,7 +449,7 @@ def moga(problem: Problem, settings: AlgoParams) -> Front:
         raise ValueError(f"optimise.algorithms.moga.n_weights: {settings.n_weights} exceeds pop_size "
                          f"{settings.pop_size}")
     t0 = time.perf_counter()
-    norm = estimate_normalisation(problem, settings.norm_samples, np.random.SeedSequence(settings.seed).spawn(1)[0])
+    norm = _settings_normalisation(problem, settings)
     weights = reference_directions(problem.n_obj, n_points=settings.n_weights, seed=settings.seed)
     algorithm = GeneticAlgorithm(pop_size=settings.pop_size, selection=TournamentSelection(func_comp=_by_score),
                                  survival=_WeightedSumSurvival(weights), eliminate_duplicates=True,

@@ -63,6 +63,12 @@ def sense_of(objectives: Sequence[str]) -> np.ndarray:
     return np.array([_SENSE_OF.get(k, 1.0) for k in objectives])
 
 
+def to_minimisation(Y: np.ndarray, objectives: Sequence[str] = OBJECTIVES) -> np.ndarray:
+    """Objectives (..., m) in natural units -> minimisation form (v_max, f_max negated); its own inverse.
+    The one place maximised objectives change sign."""
+    return np.asarray(Y, dtype=float) * sense_of(objectives)
+
+
 def objective_matrix(table: pd.DataFrame, objectives: Sequence[str] = OBJECTIVES, *,
                      prefix: str = SIM, what: str = "designs") -> np.ndarray:
     """The (n, m) matrix of ``<prefix><objective>`` columns in minimisation form (maximised ones negated)."""
@@ -70,7 +76,7 @@ def objective_matrix(table: pd.DataFrame, objectives: Sequence[str] = OBJECTIVES
     missing = [c for c in cols if c not in table.columns]
     if missing:
         raise ValueError(f"{what}: missing objective column(s) {', '.join(missing)}")
-    return table[cols].to_numpy(dtype=float) * sense_of(objectives)
+    return to_minimisation(table[cols].to_numpy(dtype=float), objectives)
 
 
 # ------------------------------------------------------------------------------------- merging

@@ -26,7 +26,7 @@ from hevlib import MODEL_VERSION
 from hevlib.components import ComponentLibrary, EngineMap, MachineMap, best_efficiency_line
 from hevlib.control import PmsConfig, thresholds
 from hevlib.cycles import Cycle
-from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
+from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, design_vector
 from hevlib.drive import N_R, BatteryArrays, DriveConfig, drive_conventional, drive_hybrid
 from hevlib.params import Params
 from hevlib.performance import performance_batch
@@ -166,9 +166,8 @@ class Simulator:
             row[0, 7] = c.test_mass_kg
             return row
         if vehicle == "prius":
-            p = self.params.baseline.prius
-            X = np.array([[p.p_eng_kw, p.p_mot_kw, p.p_gen_kw, p.i0, p.n_bat, p.n_r, p.n_s]], dtype=float)
-            mass = np.array([p.test_mass_kg])
+            X = design_vector(self.params.baseline.prius)[None, :]
+            mass = np.array([self.params.baseline.prius.test_mass_kg])
         elif vehicle == "hybrid":
             X = self.space.check(X, what="designs")
             mass = self.mass_kg(X)
@@ -185,8 +184,7 @@ class Simulator:
     def design_of(self, vehicle: Vehicle) -> dict[str, float]:
         """The seven design variables of a baseline (NaN for the conventional car's hybrid-only ones)."""
         if vehicle == "prius":
-            p = self.params.baseline.prius
-            return {v: float(getattr(p, v)) for v in DESIGN_VARS}
+            return dict(zip(DESIGN_VARS, design_vector(self.params.baseline.prius).tolist(), strict=True))
         if vehicle == "conventional":
             return {v: (self.params.baseline.conventional.p_eng_kw if v == "p_eng_kw" else np.nan) for v in DESIGN_VARS}
         raise ValueError(f"vehicle: {vehicle!r} has no fixed design")

@@ -29,7 +29,7 @@ import pandas as pd
 import pyarrow as pa
 
 from hevlib.cycles import Cycle
-from hevlib.design import DESIGN_VARS, RESPONSES, design_matrix
+from hevlib.design import DESIGN_VARS, RESPONSES, design_matrix, design_vector
 from hevlib.pareto import algo_names
 
 #: Responses of the improvement table, in its row order.
@@ -121,7 +121,7 @@ def cycle_notes(cycles: Sequence[Cycle]) -> list[str]:
 
 def prius_design(prius) -> np.ndarray:
     """The stock Prius as a (7,) design vector (``params.baseline.prius``)."""
-    return np.array([float(getattr(prius, v)) for v in DESIGN_VARS])
+    return design_vector(prius)
 
 
 def _responses(df: pd.DataFrame, n: int, what: str) -> pd.DataFrame:

@@ -7,7 +7,7 @@ import pandas as pd
 
 from hevlib.design import OBJECTIVE_UNITS, OBJECTIVES
 from hevlib.indicators import Normalisation
-from hevlib.optimise import to_minimisation
+from hevlib.pareto import to_minimisation
 from hevlib.plots import plt
 
 
