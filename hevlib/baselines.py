@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from hevlib.cycles import Cycle
-from hevlib.design import RESPONSES
+from hevlib.design import BOOL_RESPONSES, RESPONSES
 from hevlib.simulate import Simulator, energy_balance
 
 BASELINE_VEHICLES: tuple[str, ...] = ("prius", "conventional")
@@ -40,7 +40,7 @@ def simulate_baselines(sim: Simulator, cycles: Mapping[str, Cycle]) -> tuple[dic
         for vehicle in BASELINE_VEHICLES:
             raw = sim.run_raw(None, cyc, vehicle)
             resp = sim.responses(raw, cyc).iloc[0]
-            report[vehicle][run] = {k: (bool(resp[k]) if k == "cycle_met" else float(resp[k])) for k in RESPONSES}
+            report[vehicle][run] = {k: (bool(resp[k]) if k in BOOL_RESPONSES else float(resp[k])) for k in RESPONSES}
             eb = energy_balance(raw).iloc[0]
             balance.append({"vehicle": vehicle, "run": run, **eb.to_dict(),
                             "limit_violations": float(raw.frame()["limit_violations"].iloc[0])})

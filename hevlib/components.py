@@ -30,6 +30,13 @@ from hevlib.powertrain.lookup import interp_map
 
 RPM = np.pi / 30.0  # rad/s per rpm
 
+#: Rotor inertias used where a component file gives none (ADVISOR's defaults: ``fc_inertia`` 0.1 kg m^2 of
+#: its generic engines, ``mc_inertia`` / ``gc_inertia`` 0.0226 kg m^2 of its Prius machines, and the
+#: 181 lb solid-cylinder wheel set of its wheel files at r = 0.282 m). Every shipped file has its own.
+DEFAULT_ENGINE_INERTIA_KG_M2 = 0.1
+DEFAULT_MACHINE_INERTIA_KG_M2 = 0.0226
+DEFAULT_WHEEL_INERTIA_KG_M2 = 3.264
+
 
 def _ro(a) -> np.ndarray:
     arr = np.array(a, dtype=float)
@@ -65,6 +72,7 @@ class EngineMap:
     inertia_kg_m2: float
     lhv_j_per_g: float
     fuel_density_g_per_l: float
+    closed_throttle_torque_nm: np.ndarray  # motored (fuel-cut) drag torque, <= 0, indexed by speed_rad_s
 
     def __post_init__(self):
         ns, nt = len(self.speed_rad_s), len(self.torque_nm)
@@ -76,6 +84,8 @@ class EngineMap:
                 raise ValueError(f"engine {self.name}: {key} must be finite and non-negative")
         if len(self.max_torque_nm) != ns or np.any(np.diff(self.speed_rad_s) <= 0):
             raise ValueError(f"engine {self.name}: max_torque_nm / speed axis inconsistent")
+        if len(self.closed_throttle_torque_nm) != ns or np.any(self.closed_throttle_torque_nm > 0):
+            raise ValueError(f"engine {self.name}: closed_throttle_torque_nm must be <= 0, one value per speed")
         if np.any(np.diff(self.torque_nm) <= 0):
             raise ValueError(f"engine {self.name}: torque axis must be strictly increasing")
 
@@ -193,9 +203,15 @@ class Wheel:
     name: str
     radius_m: float
     rolling_resistance: float
-    inertia_kg_m2: float
+    inertia_kg_m2: float                # all wheels, tyres and axles together
     axle_drag_nm_at_0kg: float
     axle_drag_nm_per_kg: float
+    brake_speed_mps: np.ndarray         # vehicle speed axis of the braking split (>= 0, increasing)
+    brake_driveline_share: np.ndarray   # share of the braking demand the driveline may take (regeneration)
+
+    def driveline_brake_share(self, speed_mps) -> np.ndarray:
+        """Share of a braking request the driveline may take at ``speed_mps`` (linear, clamped)."""
+        return np.interp(speed_mps, self.brake_speed_mps, self.brake_driveline_share)
 
 
 @dataclass(frozen=True)
@@ -210,7 +226,7 @@ class PowerSplit:
     engine_max_speed_rad_s: float
     motor_max_speed_rad_s: float
     generator_max_speed_rad_s: float
-    engine_min_on_speed_rad_s: float    # lowest running speed (PTC_PRIUS_JPN: 1200 rpm)
+    engine_min_on_speed_rad_s: float    # lowest running speed: the engine map's lowest speed (FC_PRIUS_JPN: 1000 rpm)
     operating_line_power_w: np.ndarray  # ADVISOR's 5-point Prius operating line (for comparison)
     operating_line_speed_rad_s: np.ndarray
 
@@ -419,9 +435,10 @@ def load_engine(path: Path, notes: list[str] | None = None) -> EngineMap:
         peak_power_kw=_peak_power_kw(speed, tmax),
         engine_mass_kg=float(mass["base_engine_mass_kg"] + mass["accessories_mass_kg"]),
         fuel_system_mass_kg=float(mass["fuel_system_mass_kg"]),
-        inertia_kg_m2=float(d.get("inertia_kg_m2", 0.1)),
+        inertia_kg_m2=float(d.get("inertia_kg_m2", DEFAULT_ENGINE_INERTIA_KG_M2)),
         lhv_j_per_g=float(fuel_props["lower_heating_value_j_per_g"]),
         fuel_density_g_per_l=float(fuel_props["density_g_per_l"]),
+        closed_throttle_torque_nm=_ro(d.get("closed_throttle_torque_nm", np.zeros(len(speed)))),
     )
 
 
@@ -454,7 +471,8 @@ def load_machine(path: Path, *, generator: bool, notes: list[str] | None = None)
         name=name,
         speed_rad_s=_ro(speed), torque_nm=_ro(torque), efficiency=_ro(eff), max_torque_nm=_ro(tmax),
         peak_power_kw=_peak_power_kw(speed, tmax),
-        mass_kg=float(_need(d, "mass_kg", path)), inertia_kg_m2=float(d.get("inertia_kg_m2", 0.0)),
+        mass_kg=float(_need(d, "mass_kg", path)),
+        inertia_kg_m2=float(d.get("inertia_kg_m2", DEFAULT_MACHINE_INERTIA_KG_M2)),
     )
 
 
@@ -498,11 +516,18 @@ def load_wheel(path: Path) -> Wheel:
     d = _read_yaml(path)
     axle = _need(d, "axle_loss", path)
     m, t = axle["vehicle_mass_kg"], axle["drag_torque_nm"]
+    braking = _need(d, "braking", path)
+    v_kmh = np.array(_need(braking, "vehicle_speed_km_per_h", path), dtype=float)
+    share = np.array(_need(braking, "driveline_fraction", path), dtype=float)
+    keep = v_kmh >= 0.0                      # the file's -1 mph point only pads the table
+    if v_kmh.shape != share.shape or np.any(np.diff(v_kmh[keep]) <= 0) or np.any((share < 0) | (share > 1)):
+        raise ValueError(f"{path}: braking: speed axis must increase and driveline_fraction lie in [0, 1]")
     return Wheel(
         name=str(d.get("source", path.stem)).split()[-1], radius_m=float(_need(d, "rolling_radius_m", path)),
         rolling_resistance=float(_need(d, "rolling_resistance_coefficient", path)),
-        inertia_kg_m2=float(d.get("inertia_kg_m2", 0.0)),
+        inertia_kg_m2=float(d.get("inertia_kg_m2", DEFAULT_WHEEL_INERTIA_KG_M2)),
         axle_drag_nm_at_0kg=float(t[0]), axle_drag_nm_per_kg=float((t[1] - t[0]) / (m[1] - m[0])),
+        brake_speed_mps=_ro(v_kmh[keep] / 3.6), brake_driveline_share=_ro(share[keep]),
     )
 
 
@@ -632,7 +657,10 @@ def load_library(raw_dir: str | Path, *, battery: str = "li_ion", battery_temper
             engine_max_speed_rad_s=float(ptc["engine_max_speed_rad_s"]),
             motor_max_speed_rad_s=float(doc["motor_speed_limit_rpm"]) * RPM,
             generator_max_speed_rad_s=float(ptc["generator_max_speed_rad_s"]),
-            engine_min_on_speed_rad_s=float(ptc["engine_idle_speed_rad_s"]),
+            # the engine runs wherever its map has data (ADVISOR's 1200 rpm idle/fuel-cut speed is a control
+            # choice of the stock Prius, not a limit of the engine: with the generator's speed limit it leaves
+            # no running speed at standstill for k > 3.58 and would stall such designs)
+            engine_min_on_speed_rad_s=engine_hybrid.min_speed_rad_s,
             operating_line_power_w=_ro(ptc["engine_operating_line"]["power_w"]),
             operating_line_speed_rad_s=_ro(ptc["engine_operating_line"]["speed_rad_s"]),
         ),

@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from hevlib.powertrain.engine import EngineArrays, line_power_for_torque, max_torque
-from hevlib.powertrain.hybrid import SplitDesign, SplitLimits, generator_overspeed_if_stopped
+from hevlib.powertrain.hybrid import SplitDesign, SplitLimits
 from hevlib.powertrain.machines import MachineArrays, electric_power
 
 
@@ -108,15 +108,16 @@ def supervise(engine_on: bool, t_in_state_s: float, soc: float, grade: float, v_
               E: EngineArrays, M: MachineArrays) -> tuple[bool, float]:
     """Engine ON/OFF and target engine power (W) for the next step.
 
-    Order of authority: physics first (the engine must turn when the generator would otherwise
-    overspeed, cannot run when its speed window is empty), then the motor's ability to drive alone,
-    then the fuzzy rule base, then the minimum on/off times. The engine is fuel-cut while braking.
+    Order of authority: physics first (the engine cannot run when its speed window is empty; it must run
+    whenever it can and the battery alone cannot carry the traction or the accessory load), then the
+    fuzzy rule base, then the minimum on/off times. The engine is fuel-cut while braking; an engine that
+    is off while the ring turns fast enough to overspeed a stopped generator is spun by the gear set with
+    its fuel cut (:func:`hevlib.powertrain.hybrid.dispatch`), not fired.
     Target power: ring demand plus accessories plus a charging share (fuzzy charge degree or SOC
     below target), floored at ``p_min_w``, capped by what the engine can give; boost = full power.
     """
     w_r, t_m_cap = lim.w_r, lim.t_m_cap
     can_run = lim.lo <= lim.hi
-    must_run = generator_overspeed_if_stopped(w_r, d)
     k = d.n_r / d.n_s
     t_r_eng_cap = d.eta_pg * k / (1.0 + k) * max_torque(lim.hi, d.s_eng, E) if can_run else 0.0
     torque_frac = t_r_req / max(t_m_cap + t_r_eng_cap, 1e-9)
@@ -124,6 +125,8 @@ def supervise(engine_on: bool, t_in_state_s: float, soc: float, grade: float, v_
     ev_ok = True
     if t_r_req > 0.0:
         ev_ok = t_r_req <= t_m_cap and electric_power(t_r_req, w_r, d.s_mot, M) + d.p_acc_w <= p_dis
+    elif t_r_req == 0.0:
+        ev_ok = d.p_acc_w <= p_dis        # standing or coasting: can the battery carry the accessories?
     if not ev_ok:
         want = True
     if t_r_req < 0.0:
@@ -132,8 +135,6 @@ def supervise(engine_on: bool, t_in_state_s: float, soc: float, grade: float, v_
         want = True
     if not engine_on and want and t_in_state_s < pc.min_off_s and ev_ok:
         want = False
-    if must_run:
-        want = True
     if not can_run:
         want = False
     if not want:

@@ -12,7 +12,7 @@ DESIGN_VARS: tuple[str, ...] = ("p_eng_kw", "p_mot_kw", "p_gen_kw", "i0", "n_bat
 INTEGER_VARS: tuple[str, ...] = ("n_bat", "n_r", "n_s")
 INTEGER_MASK = np.array([v in INTEGER_VARS for v in DESIGN_VARS])
 
-#: The eleven objectives of SPEC section 5 (units: kg, L/100 km, %, g/km x3, km, km/h, -, km/h, m/s^2).
+#: The eleven objectives of SPEC section 5 (units: kg, L/100 km, %, g/km x3, km, -, -, km/h, m/s^2).
 OBJECTIVES: tuple[str, ...] = (
     "m_veh", "fc", "accel_dev", "hc", "co", "nox", "e_l", "speed_dev", "diff_soc", "v_max", "f_max",
 )
@@ -20,11 +20,14 @@ OBJECTIVES: tuple[str, ...] = (
 SENSE = np.array([-1.0 if k in ("v_max", "f_max") else 1.0 for k in OBJECTIVES])
 OBJECTIVE_UNITS = {
     "m_veh": "kg", "fc": "L/100 km", "accel_dev": "%", "hc": "g/km", "co": "g/km", "nox": "g/km",
-    "e_l": "km", "speed_dev": "km/h", "diff_soc": "-", "v_max": "km/h", "f_max": "m/s^2",
+    "e_l": "km", "speed_dev": "-", "diff_soc": "-", "v_max": "km/h", "f_max": "m/s^2",
 }
 #: Extra responses every simulation reports beside the objectives.
-EXTRA_RESPONSES: tuple[str, ...] = ("fc_soc_corrected", "eta_drivetrain", "t_0_100_s", "cycle_met")
+EXTRA_RESPONSES: tuple[str, ...] = ("fc_soc_corrected", "eta_drivetrain", "t_0_100_s", "cycle_met",
+                                    "speed_err_mean_kmh", "stalled", "accessory_unmet_kwh")
 RESPONSES: tuple[str, ...] = OBJECTIVES + EXTRA_RESPONSES
+#: Responses that are flags (bool columns); every other response is a float.
+BOOL_RESPONSES: tuple[str, ...] = ("cycle_met", "stalled")
 
 
 @dataclass(frozen=True)

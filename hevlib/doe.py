@@ -7,9 +7,10 @@ field also carries its unit as Arrow field metadata ``unit``):
 * design variables, ``DESIGN_VARS`` order: ``p_eng_kw`` [kW], ``p_mot_kw`` [kW], ``p_gen_kw`` [kW],
   ``i0`` [-] (float64); ``n_bat`` [modules], ``n_r`` [teeth], ``n_s`` [teeth] (int64);
 * every simulator response, ``RESPONSES`` order (float64 unless noted): ``m_veh`` [kg], ``fc``
-  [L/100 km], ``accel_dev`` [%], ``hc``, ``co``, ``nox`` [g/km], ``e_l`` [km], ``speed_dev`` [km/h],
-  ``diff_soc`` [-], ``v_max`` [km/h], ``f_max`` [m/s^2], ``fc_soc_corrected`` [L/100 km],
-  ``eta_drivetrain`` [-], ``t_0_100_s`` [s], ``cycle_met`` (bool);
+  [L/100 km], ``accel_dev`` [%], ``hc``, ``co``, ``nox`` [g/km], ``e_l`` [km], ``speed_dev`` [-] (share of
+  the cycle off the trace), ``diff_soc`` [-], ``v_max`` [km/h], ``f_max`` [m/s^2], ``fc_soc_corrected``
+  [L/100 km], ``eta_drivetrain`` [-], ``t_0_100_s`` [s], ``cycle_met`` (bool), ``speed_err_mean_kmh``
+  [km/h], ``stalled`` (bool), ``accessory_unmet_kwh`` [kWh];
 * ``source`` (string): ``l27``, ``lhs`` or ``heldout``.
 
 Run metadata lives in the Parquet schema metadata (keys ``hev.*``, see :func:`run_metadata`): the cycle
@@ -31,6 +32,7 @@ import pyarrow.parquet as pq
 
 from hevlib import MODEL_VERSION, SIMULATOR_SOURCES, source_hash
 from hevlib.design import (
+    BOOL_RESPONSES,
     DESIGN_VARS,
     INTEGER_MASK,
     INTEGER_VARS,
@@ -48,7 +50,8 @@ SOURCES = ("l27", "lhs", "heldout")
 UNITS: dict[str, str] = {
     "p_eng_kw": "kW", "p_mot_kw": "kW", "p_gen_kw": "kW", "i0": "-", "n_bat": "modules", "n_r": "teeth",
     "n_s": "teeth", **OBJECTIVE_UNITS, "fc_soc_corrected": "L/100 km", "eta_drivetrain": "-",
-    "t_0_100_s": "s", "cycle_met": "bool", "source": "-",
+    "t_0_100_s": "s", "cycle_met": "bool", "speed_err_mean_kmh": "km/h", "stalled": "bool",
+    "accessory_unmet_kwh": "kWh", "source": "-",
 }
 
 
@@ -58,7 +61,7 @@ def _field(name: str, typ: pa.DataType) -> pa.Field:
 
 DOE_SCHEMA = pa.schema(
     [_field(v, pa.int64() if v in INTEGER_VARS else pa.float64()) for v in DESIGN_VARS]
-    + [_field(r, pa.bool_() if r == "cycle_met" else pa.float64()) for r in RESPONSES]
+    + [_field(r, pa.bool_() if r in BOOL_RESPONSES else pa.float64()) for r in RESPONSES]
     + [_field("source", pa.string())]
 )
 
@@ -167,7 +170,7 @@ def doe_table(X: np.ndarray, responses: pd.DataFrame, source: np.ndarray | str) 
         cols[v] = pa.array(np.round(X[:, j]).astype(np.int64) if v in INTEGER_VARS else X[:, j])
     for r in RESPONSES:
         col = responses[r].to_numpy()
-        cols[r] = pa.array(col.astype(bool) if r == "cycle_met" else col.astype(float))
+        cols[r] = pa.array(col.astype(bool) if r in BOOL_RESPONSES else col.astype(float))
     cols["source"] = pa.array([str(s) for s in source], type=pa.string())
     return pa.Table.from_pydict(cols, schema=DOE_SCHEMA)
 
@@ -238,7 +241,7 @@ def finite_objectives(df: pd.DataFrame) -> np.ndarray:
 # ----------------------------------------------------------------------------------------- report
 def doe_summary(df: pd.DataFrame, metadata: dict[str, str]) -> dict:
     """The ``reports/doe.json`` content: counts, per-column ranges, designs that missed the cycle."""
-    numeric = list(DESIGN_VARS) + [r for r in RESPONSES if r != "cycle_met"]
+    numeric = list(DESIGN_VARS) + [r for r in RESPONSES if r not in BOOL_RESPONSES]
     ranges = {}
     for c in numeric:
         col = df[c].to_numpy(dtype=float)
@@ -250,7 +253,9 @@ def doe_summary(df: pd.DataFrame, metadata: dict[str, str]) -> dict:
     missed = df.index[~df["cycle_met"].to_numpy(dtype=bool)]
     failed = [{"row": int(i), "source": str(df.at[i, "source"]),
                **{v: float(df.at[i, v]) for v in DESIGN_VARS},
-               "e_l": float(df.at[i, "e_l"]), "speed_dev": float(df.at[i, "speed_dev"])} for i in missed]
+               "e_l": float(df.at[i, "e_l"]), "speed_dev": float(df.at[i, "speed_dev"]),
+               "stalled": bool(df.at[i, "stalled"]),
+               "accessory_unmet_kwh": float(df.at[i, "accessory_unmet_kwh"])} for i in missed]
     return {
         "n_designs": int(len(df)),
         "by_source": {s: int((df["source"] == s).sum()) for s in SOURCES if (df["source"] == s).any()},
@@ -259,6 +264,7 @@ def doe_summary(df: pd.DataFrame, metadata: dict[str, str]) -> dict:
         "model_version": metadata.get("hev.model_version"),
         "n_cycle_met": int(df["cycle_met"].sum()),
         "n_cycle_not_met": len(failed),
+        "n_stalled": int(df["stalled"].sum()),
         "n_non_finite_objectives": int((~finite_objectives(df)).sum()),
         "ranges": ranges,
         "cycle_not_met": failed,

@@ -42,7 +42,6 @@ class DriveConfig(NamedTuple):
     """Scalars shared by every design of a batch (chassis, limits, battery, controller)."""
 
     dt: float
-    mass_factor: float
     mu: float
     rho: float
     g: float
@@ -59,8 +58,8 @@ class DriveConfig(NamedTuple):
     eta_pg: float
     eta_fd: float
     i_max_a: float
-    regen_frac: float
-    regen_fade_mps: float
+    brake_v_mps: np.ndarray   # braking split of the wheel file: speed axis ...
+    brake_share: np.ndarray   # ... and the share of braking the driveline may take (regeneration)
     p_acc_w: float            # hybrid: electrical; conventional: mechanical
     lhv_j_per_g: float
     w_e_min: float
@@ -73,6 +72,16 @@ class DriveConfig(NamedTuple):
     v_max_mod: float
     w_idle: float
     w_launch: float
+    j_wheel: float            # all wheels, tyres and axles, kg m^2
+    j_eng: float              # base-map rotor inertias (scaled with each design's power), kg m^2
+    j_mot: float
+    j_gen: float
+    off_trace_mps: float      # speed error above which a step counts as off the trace (speed_dev)
+
+
+#: Achieved speed below which the car counts as standing still, m/s (and the trace as asking it to move
+#: when the cycle's speed is above it).
+STILL_MPS = 0.01
 
 
 # per-design row of the design matrix the kernels read
@@ -81,9 +90,40 @@ N_R = 8
 
 
 @njit(cache=True, inline="always")
-def chassis(m: float, c: DriveConfig) -> Chassis:
-    return Chassis(m, m * c.mass_factor, c.cda, c.crr, c.r, c.axle0_nm + c.axle_per_kg_nm * m, c.h_over_l,
+def chassis(m: float, m_eff: float, c: DriveConfig) -> Chassis:
+    return Chassis(m, m_eff, c.cda, c.crr, c.r, c.axle0_nm + c.axle_per_kg_nm * m, c.h_over_l,
                    c.f_front, c.mu, c.rho, c.g)
+
+
+@njit(cache=True, inline="always")
+def split_equivalent_mass_kg(row: np.ndarray, c: DriveConfig) -> float:
+    """Test mass plus the rotating inertias the power-split car accelerates with the vehicle.
+
+    Wheels ``J_wh / r^2``; motor on the ring ``J_m (i0 / r)^2``; generator on the sun, which at a held
+    engine speed (and with the engine stopped) turns at ``-k`` times the ring (Willis), ``J_g (k i0 / r)^2``.
+    The engine's speed is set by the controller, not by the vehicle's, so its inertia does not reflect.
+    Machine inertias scale with the machine's power, like their masses.
+    """
+    k = row[R_N_R] / row[R_N_S]
+    g2 = (row[R_I0] / c.r) ** 2
+    return (row[R_MASS] + c.j_wheel / (c.r * c.r)
+            + (row[R_S_MOT] * c.j_mot + k * k * row[R_S_GEN] * c.j_gen) * g2)
+
+
+@njit(cache=True, inline="always")
+def conventional_equivalent_mass_kg(m: float, ratio: float, engaged: bool, s_eng: float, c: DriveConfig) -> float:
+    """Test mass plus wheels plus, with the clutch closed, the engine reflected through the overall
+    ratio of the gear in use, ``J_e (ratio / r)^2`` (gearbox inertia: none in the data)."""
+    m_eff = m + c.j_wheel / (c.r * c.r)
+    if engaged:
+        m_eff += s_eng * c.j_eng * (ratio / c.r) ** 2
+    return m_eff
+
+
+@njit(cache=True, inline="always")
+def driveline_brake_share(v: float, c: DriveConfig) -> float:
+    """Share of a braking request the driveline may take at speed ``v`` (the wheel file's table)."""
+    return np.interp(v, c.brake_v_mps, c.brake_share)
 
 
 @njit(cache=True, inline="always")
@@ -155,8 +195,9 @@ def _book_wheel(o, f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch):
 
 
 @njit(cache=True, inline="always")
-def _book_following(o, v_ref_now, v_ref_next, v0, v_next, v_avg, dt):
-    """Cycle-following statistics of one step: acceleration shortfall, speed error, distances."""
+def _book_following(o, v_ref_now, v_ref_next, v0, v_next, v_avg, dt, off_trace_mps):
+    """Cycle-following statistics of one step: acceleration shortfall, speed error and time off the
+    trace, distances, and the spell the car has stood still while the cycle asked it to move."""
     a_req = (v_ref_next - v_ref_now) / dt       # what the cycle asks for this step
     if a_req > 0.0:
         o[L.O_ACC_REQ] += a_req
@@ -164,6 +205,13 @@ def _book_following(o, v_ref_now, v_ref_next, v0, v_next, v_avg, dt):
     err = _clean(abs(v_ref_next - v_next))
     o[L.O_SPEED_ERR_SUM] += err
     o[L.O_MAX_SPEED_ERR] = max(o[L.O_MAX_SPEED_ERR], err)
+    if err > off_trace_mps:
+        o[L.O_OFF_TRACE_S] += dt
+    if v_next < STILL_MPS and v_ref_next > STILL_MPS:
+        o[L.O_STUCK_NOW_S] += dt
+        o[L.O_STUCK_MAX_S] = max(o[L.O_STUCK_MAX_S], o[L.O_STUCK_NOW_S])
+    else:
+        o[L.O_STUCK_NOW_S] = 0.0
     o[L.O_DIST_M] += v_avg * dt
     o[L.O_DIST_REF_M] += 0.5 * (v_ref_now + v_ref_next) * dt
     o[L.O_N_STEPS] += 1.0
@@ -224,7 +272,7 @@ def _limited_conv(v0, v_req, v_cap, f_cmd, ratio, sn, cs, dt, st, d, ch, E):
 def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: MachineArrays, G: MachineArrays,
                 B: BatteryArrays, v_ref, grade, sin_g, cos_g, key_on, o, tr, record: bool):
     d = split_design(row, c)
-    ch = chassis(row[R_MASS], c)
+    ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c), c)
     n_bat = row[R_N_BAT]
     cap = c.cap_as
     dt = c.dt
@@ -246,7 +294,7 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
         if stationary and not key_on[t]:
             # prescribed key-off (e.g. the FTP soak): nothing runs, no accessory load
             eng_on = False
-            _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt)
+            _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.off_trace_mps)
             t_state += dt
             if record:
                 tr[t + 1, L.T_SOC] = soc
@@ -258,7 +306,7 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
         f_req = 0.0 if stationary else ch.m_eff * (v_tgt - v0) / dt + f_road
         f_adh = adhesion_limit(sn, cs, f_road, ch)
         f_cmd = min(f_req, f_adh) if f_req >= 0.0 else max(f_req, -f_adh)
-        regen = c.regen_frac * min(v_req / c.regen_fade_mps, 1.0)
+        regen = driveline_brake_share(v_req, c)
         lim = split.limits(v_req, d, E, M, G)
         t_r_req = split.ring_torque_for_wheel_force(f_cmd, d)
         want, p_target = supervise(eng_on, t_state, soc, gr, v0 * 3.6, lim, t_r_req, p_dis, th, pc, d, E, M)
@@ -299,6 +347,8 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
         if st.running:
             fuel, hc, co, nox = rates(st.w_e, st.t_e, d.s_eng, E)
             o[L.O_ENG_ON_STEPS] += 1.0
+        elif st.w_e > 0.0:
+            o[L.O_ENG_SPUN_STEPS] += 1.0          # spun by the gear set with its fuel cut
         p_shaft = st.t_e * st.w_e
         # ---- energy accounting (J)
         _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, dt)
@@ -308,12 +358,13 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
         o[L.O_E_LOSS_GEN] += (st.p_g_e - st.t_g * st.w_g) * dt
         o[L.O_E_GEN_MECH_IN] += max(-st.t_g * st.w_g, 0.0) * dt
         o[L.O_E_GEN_ELEC_OUT] += max(-st.p_g_e, 0.0) * dt
-        o[L.O_E_LOSS_PG] += (1.0 - d.eta_pg) * st.t_e * k / (1.0 + k) * st.w_r * dt
+        # gear-set loss: the engine's ideal ring share minus what reaches (or leaves) the ring
+        o[L.O_E_LOSS_PG] += (st.t_e * k / (1.0 + k) - (st.t_r - st.t_m)) * st.w_r * dt
         o[L.O_E_LOSS_FD] += (st.t_r * st.w_r - st.f_del * v_disp) * dt
         o[L.O_E_ACC] += st.p_acc * dt
-        o[L.O_E_ACC_SHED] += (d.p_acc_w - st.p_acc) * dt
+        o[L.O_E_ACC_UNMET] += (d.p_acc_w - st.p_acc) * dt
         _book_wheel(o, st.f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch)
-        a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt)
+        a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt, c.off_trace_mps)
         soc_lo, soc_hi = min(soc_lo, soc), max(soc_hi, soc)
         # ---- limits
         bad = 0.0
@@ -353,6 +404,8 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
             tr[t + 1, L.T_T_M_MAX] = torque_limit(st.w_r, d.s_mot, M)
             tr[t + 1, L.T_T_G_MAX] = torque_limit(st.w_g, d.s_gen, G)
             tr[t + 1, L.T_GRADE] = gr
+            tr[t + 1, L.T_P_ACC_UNMET] = d.p_acc_w - st.p_acc
+            tr[t + 1, L.T_M_EFF] = ch.m_eff
         v = v_next
         t_state += dt
     o[L.O_SOC_END] = soc
@@ -378,7 +431,10 @@ def drive_hybrid(rows, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Ma
 @njit(cache=True)
 def _conventional_one(row, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesign, E: EngineArrays,
                       v_ref, grade, sin_g, cos_g, key_on, o, tr, record: bool):
-    ch = chassis(row[R_MASS], c)
+    m = row[R_MASS]
+    m_free = conventional_equivalent_mass_kg(m, 0.0, False, d.s_eng, c)   # clutch open
+    m_prev = m_free
+    ch = chassis(m, m_free, c)
     dt = c.dt
     v_lim = d.w_e_max * d.r / ratios[-1]
     v = 0.0
@@ -390,19 +446,41 @@ def _conventional_one(row, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesi
         v_tgt = min(v_ref_next, v_lim)
         stationary = v0 <= 1e-9 and v_tgt <= 1e-9
         if stationary and not key_on[t]:
-            _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt)
+            _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.off_trace_mps)
             if record:
                 tr[t + 1, L.T_GRADE] = gr
             continue
         v_req = 0.0 if stationary else 0.5 * (v0 + v_tgt)
+        ch = chassis(m, m_free, c)
         f_aero, f_roll, f_grade, f_axle = road_force(v_req, sn, cs, ch)
         f_road = f_aero + f_roll + f_grade + f_axle
         f_req = 0.0 if stationary else ch.m_eff * (v_tgt - v0) / dt + f_road
-        f_cmd = min(f_req, adhesion_limit(sn, cs, f_road, ch))
         g0 = conv.scheduled_gear(v0 * 3.6, upshift_kmh)
         while g0 > 0 and v_req / d.r * ratios[g0] < d.w_idle and f_req > 0.0:
             g0 -= 1                                   # never lug below idle in a traction step
-        gear = conv.best_gear(v_req, f_cmd, g0, ratios, d, E) if f_cmd > 0.0 else g0
+        gear = g0
+        # equivalent mass of the gear in use: the engine is reflected while the clutch is closed (traction
+        # above the launch speed); the gear is chosen on it, and the mass re-taken once for a kick-down
+        for _ in range(2):
+            engaged = f_req > 0.0 and d.w_launch <= v_req / d.r * ratios[gear] <= d.w_e_max
+            m_eff = conventional_equivalent_mass_kg(m, ratios[gear], engaged, d.s_eng, c)
+            ch = chassis(m, m_eff, c)
+            f_try = 0.0 if stationary else m_eff * (v_tgt - v0) / dt + f_road
+            if engaged and f_try <= 0.0:
+                ch = chassis(m, m_free, c)            # the reflected engine would turn traction into braking
+                f_try = 0.0 if stationary else m_free * (v_tgt - v0) / dt + f_road
+            f_cmd = min(f_try, adhesion_limit(sn, cs, f_road, ch))
+            g_best = conv.best_gear(v_req, f_cmd, g0, ratios, d, E) if f_cmd > 0.0 else g0
+            f_req_step = f_try
+            if g_best == gear:
+                break
+            gear = g_best
+        f_req = f_req_step
+        if ch.m_eff != m_prev:
+            # clutch closing or opening, or a shift: the engine's share of the kinetic energy jumps; the
+            # clutch slip that syncs it dissipates (or, rev-matching a downshift, supplies) the difference
+            o[L.O_E_LOSS_CLUTCH] += 0.5 * (m_prev - ch.m_eff) * v0 * v0
+            m_prev = ch.m_eff
         st = conv.dispatch(v_req, f_cmd, ratios[gear], d, E)
         v_disp = v_req
         f_brake = 0.0
@@ -424,7 +502,7 @@ def _conventional_one(row, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesi
         o[L.O_E_LOSS_CLUTCH] += st.loss_clutch_w * dt
         _book_wheel(o, st.f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch)
         o[L.O_ENG_ON_STEPS] += 1.0
-        a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt)
+        a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt, c.off_trace_mps)
         if _over(st.w_e, d.w_e_max) or _over(st.t_e, max_torque(st.w_e, d.s_eng, E)):
             o[L.O_LIMIT_VIOLATIONS] += 1.0
         if record:
@@ -441,11 +519,12 @@ def _conventional_one(row, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesi
             tr[t + 1, L.T_A_ACH] = (v_next - v0) / dt
             tr[t + 1, L.T_T_E_MAX] = max_torque(st.w_e, d.s_eng, E)
             tr[t + 1, L.T_GRADE] = gr
+            tr[t + 1, L.T_M_EFF] = ch.m_eff
         v = v_next
     o[L.O_SOC_END] = c.soc_init
     o[L.O_SOC_MIN_SEEN] = c.soc_init
     o[L.O_SOC_MAX_SEEN] = c.soc_init
-    o[L.O_E_KIN_END] = 0.5 * ch.m_eff * v * v
+    o[L.O_E_KIN_END] = 0.5 * m_prev * v * v
     if record:
         tr[0, L.T_V_REF] = v_ref[0]
         tr[0, L.T_GRADE] = grade[0]

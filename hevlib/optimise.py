@@ -22,6 +22,7 @@ designs the algorithm returned that violate the mass constraint are dropped and 
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import inspect
 import sys
@@ -50,6 +51,7 @@ from pymoo.util.ref_dirs.energy import RieszEnergyReferenceDirectionFactory
 from pymoo.util.reference_direction import UniformReferenceDirectionFactory
 
 from hevlib.design import (
+    BOOL_RESPONSES,
     DESIGN_VARS,
     INTEGER_MASK,
     OBJECTIVES,
@@ -80,31 +82,36 @@ class HevProblem(Problem):
     Constraints, all ``G <= 0`` feasible and dimensionless (so one penalty weight fits all):
 
     - always: exact test mass at most ``m_veh_max_kg`` (``m / m_max - 1``);
-    - ``speed_dev_max_kmh``: the surrogate's predicted speed deviation at most that (``pred / max - 1``),
-      so fronts are not spent on designs that cannot follow the sizing cycle (and whose per-km
-      figures, over the little they drive, would look flattering);
+    - ``speed_dev_max``: the surrogate's predicted speed deviation (share of the sizing cycle off the
+      trace) at most that (``pred / max - 1``), so fronts are not spent on designs that cannot follow
+      the sizing cycle (a stalled design misses the trace for most of it);
+    - ``stalled``: a callable ``X -> (n,) bool`` that says which designs stall (the simulator, where it
+      is in the loop); a stalled design is infeasible (``+1``, else ``-1``) whatever its objectives;
     - ``gen_below_motor``: generator peak power below the motor's (``p_gen / p_mot - 1 < 0``, exact).
 
     ``buildable_gear_set`` makes the repair snap (n_r, n_s) to the nearest buildable planetary set.
     """
 
     def __init__(self, surrogate, space: DesignSpace, mass_kg: Callable[[np.ndarray], np.ndarray],
-                 m_veh_max_kg: float, *, speed_dev_max_kmh: float | None = None, gen_below_motor: bool = False,
-                 buildable_gear_set: bool = False):
+                 m_veh_max_kg: float, *, speed_dev_max: float | None = None, gen_below_motor: bool = False,
+                 buildable_gear_set: bool = False, stalled: Callable[[np.ndarray], np.ndarray] | None = None):
         if not m_veh_max_kg > 0:
             raise ValueError(f"m_veh_max_kg: must be positive, got {m_veh_max_kg}")
         j_r, j_s = DESIGN_VARS.index("n_r"), DESIGN_VARS.index("n_s")
         if space.upper[j_s] >= space.lower[j_r]:
             raise ValueError("design_space.n_s: upper bound must lie below n_r's lower bound, or the optimisers "
                              "would propose gear sets with n_s >= n_r")
-        self.constraint_names = ["mass"] + (["speed_dev"] if speed_dev_max_kmh is not None else []) \
-            + (["gen_below_motor"] if gen_below_motor else [])
+        if speed_dev_max is not None and not speed_dev_max > 0:
+            raise ValueError(f"speed_dev_max: must be positive, got {speed_dev_max}")
+        self.constraint_names = ["mass"] + (["speed_dev"] if speed_dev_max is not None else []) \
+            + (["gen_below_motor"] if gen_below_motor else []) + (["stalled"] if stalled is not None else [])
         super().__init__(n_var=space.n, n_obj=len(OBJECTIVES), n_ieq_constr=len(self.constraint_names),
                          xl=space.lower, xu=space.upper)
         self.surrogate = surrogate
         self.mass_kg = mass_kg
         self.m_veh_max_kg = float(m_veh_max_kg)
-        self.speed_dev_max_kmh = speed_dev_max_kmh
+        self.speed_dev_max = speed_dev_max
+        self.stalled = stalled
         self.integer_mask = INTEGER_MASK.copy()
         self.gear_sets = buildable_gear_sets(space) if buildable_gear_set else None
         if self.gear_sets is not None and len(self.gear_sets) == 0:
@@ -132,12 +139,17 @@ class HevProblem(Problem):
         if m.shape != (len(X),) or not np.all(np.isfinite(m)):
             raise ValueError(f"mass_kg: expected {len(X)} finite masses, got shape {m.shape}")
         cols = [m / self.m_veh_max_kg - 1.0]
-        if self.speed_dev_max_kmh is not None:
+        if self.speed_dev_max is not None:
             if Y is None:
                 Y = self._checked(self.surrogate.predict(X), len(X), "predict")
-            cols.append(Y[:, OBJECTIVES.index("speed_dev")] / self.speed_dev_max_kmh - 1.0)
+            cols.append(Y[:, OBJECTIVES.index("speed_dev")] / self.speed_dev_max - 1.0)
         if "gen_below_motor" in self.constraint_names:
             cols.append(X[:, DESIGN_VARS.index("p_gen_kw")] / X[:, DESIGN_VARS.index("p_mot_kw")] - 1.0 + 1e-9)
+        if self.stalled is not None:
+            st = np.asarray(self.stalled(X), dtype=bool).reshape(-1)
+            if st.shape != (len(X),):
+                raise ValueError(f"stalled: expected {len(X)} flags, got shape {st.shape}")
+            cols.append(np.where(st, 1.0, -1.0))
         return np.column_stack(cols)
 
     def _evaluate(self, x, out, *args, **kwargs):
@@ -529,7 +541,7 @@ def front_schema(with_std: bool) -> pa.Schema:
     fields += [pa.field(f"pred_{k}", pa.float64()) for k in OBJECTIVES]
     if with_std:
         fields += [pa.field(f"pred_{k}_std", pa.float64()) for k in OBJECTIVES]
-    fields += [pa.field(f"sim_{k}", pa.bool_() if k == "cycle_met" else pa.float64()) for k in RESPONSES]
+    fields += [pa.field(f"sim_{k}", pa.bool_() if k in BOOL_RESPONSES else pa.float64()) for k in RESPONSES]
     fields += [pa.field("m_veh_exact_kg", pa.float64()), pa.field("feasible", pa.bool_()),
                pa.field("nondominated_sim", pa.bool_())]
     return pa.schema(fields)
@@ -552,7 +564,7 @@ def front_table(front: Front, sim: pd.DataFrame, problem: HevProblem) -> pd.Data
         for k, name in enumerate(OBJECTIVES):
             cols[f"pred_{name}_std"] = front.std[:, k]
     for name in RESPONSES:
-        cols[f"sim_{name}"] = sim[name].to_numpy(dtype=bool if name == "cycle_met" else float)
+        cols[f"sim_{name}"] = sim[name].to_numpy(dtype=bool if name in BOOL_RESPONSES else float)
     G = problem.constraint(front.X, front.F) if len(front) else np.zeros((0, problem.n_ieq_constr))
     cols["m_veh_exact_kg"] = (G[:, 0] + 1.0) * problem.m_veh_max_kg
     cols["feasible"] = np.all(G <= 0.0, axis=1)
@@ -646,13 +658,30 @@ def optimise_and_resimulate(problem: HevProblem, algo: str, settings: AlgoParams
     t0 = time.perf_counter()
     sim = resimulate(front.X, simulate) if len(front) else pd.DataFrame({c: [] for c in RESPONSES})
     resim_s = time.perf_counter() - t0
+    front, sim, n_stalled = drop_stalled(front, sim)
     table = front_table(front, sim, problem)
-    return StudyResult(front, table, front_report(front, table, hv, settings=settings, resim_runtime_s=resim_s))
+    report = front_report(front, table, hv, settings=settings, resim_runtime_s=resim_s)
+    report["n_stalled_dropped"] = n_stalled
+    return StudyResult(front, table, report)
+
+
+def drop_stalled(front: Front, sim: pd.DataFrame) -> tuple[Front, pd.DataFrame, int]:
+    """The front without the designs the true model finds stalled (infeasible whatever the surrogate
+    predicted), the re-simulated rows to match, and how many were dropped."""
+    if not len(front):
+        return front, sim, 0
+    keep = ~sim["stalled"].to_numpy(dtype=bool)
+    if keep.all():
+        return front, sim, 0
+    std = front.std[keep] if front.std is not None else None
+    kept = dataclasses.replace(front, X=front.X[keep], F=front.F[keep], std=std)
+    return kept, sim[keep].reset_index(drop=True), int(np.count_nonzero(~keep))
 
 
 __all__ = [
     "ALGORITHMS", "Front", "HevProblem", "HvSettings", "IntegerRepair", "StudyResult", "doe_normalisation",
-    "estimate_normalisation", "front_report", "front_schema", "front_table", "moead", "moga", "nsga3", "optimise",
+    "drop_stalled", "estimate_normalisation", "front_report", "front_schema", "front_table", "moead", "moga", "nsga3",
+    "optimise",
     "optimise_and_resimulate", "reference_directions", "resimulate", "run", "surrogate_error", "to_minimisation",
     "weighted_sum_ranks",
 ]

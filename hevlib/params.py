@@ -101,19 +101,18 @@ class BaselineParams(_Strict):
 
 # --------------------------------------------------------------------------------------- simulation
 class SimParams(_Strict):
-    soc_init: Frac = 0.6
-    soc_min: Frac = 0.4
-    soc_max: Frac = 0.8
-    mass_factor: Annotated[float, Field(ge=1.0, le=1.5)] = 1.05
+    soc_init: Frac = 0.7                # ADVISOR's initial SOC
+    soc_min: Frac = 0.45                # PTC_PRIUS_JPN SOC window
+    soc_max: Frac = 0.75
     adhesion_coefficient: Annotated[float, Field(gt=0, le=1.5)] = 0.9
-    regen_fraction_max: Frac = 0.8
-    regen_fade_kmh: Annotated[float, Field(gt=0, le=50)] = 10.0
     planetary_efficiency: Annotated[float, Field(gt=0.8, le=1.0)] = 0.98
     final_drive_efficiency: Annotated[float, Field(gt=0.8, le=1.0)] = 0.97
     pack_current_max_a: Pos = 200.0
     perf_dt_s: Annotated[float, Field(gt=0, le=1)] = 0.1
     perf_max_time_s: Annotated[float, Field(gt=10, le=300)] = 60.0
     cycle_met_tolerance_kmh: Annotated[float, Field(gt=0, le=50)] = 3.2
+    stall_time_s: Annotated[float, Field(gt=0, le=3600)] = 10.0        # stood still this long while asked to move
+    min_distance_share: Annotated[float, Field(gt=0, le=1)] = 0.1      # per-km figures below: failure ceiling
 
     @model_validator(mode="after")
     def _window(self):
@@ -258,7 +257,7 @@ class ScreenParams(_Strict):
     """Screening of the merged non-dominated designs, ranking, and the pick for validation (SPEC 9)."""
 
     gen_below_motor: bool = True            # rule p_gen_kw < p_mot_kw (reported even when off)
-    speed_dev_max_kmh: Pos = 10.0           # rule sim_speed_dev <= this
+    speed_dev_max: Frac = 0.4               # rule sim_speed_dev (share of the cycle off the trace) <= this
     mass_max_kg: Pos = 1195.0               # rule sim_m_veh <= this
     buildable_gear_set: bool = True         # rule hevlib.design.gear_set_buildable (reported even when off)
     n_keep: Annotated[int, Field(ge=1, le=1_000_000)] = 78

@@ -132,9 +132,14 @@ def rule_gen_below_motor(table: pd.DataFrame) -> np.ndarray:
     return table["p_gen_kw"].to_numpy(dtype=float) < table["p_mot_kw"].to_numpy(dtype=float)
 
 
-def rule_speed_dev(table: pd.DataFrame, max_kmh: float) -> np.ndarray:
-    """Simulated mean speed deviation on the sizing cycle within ``max_kmh`` (NaN fails)."""
-    return table[f"{SIM}speed_dev"].to_numpy(dtype=float) <= max_kmh
+def rule_speed_dev(table: pd.DataFrame, max_share: float) -> np.ndarray:
+    """Simulated share of the sizing cycle off the trace within ``max_share`` (NaN fails)."""
+    return table[f"{SIM}speed_dev"].to_numpy(dtype=float) <= max_share
+
+
+def rule_not_stalled(table: pd.DataFrame) -> np.ndarray:
+    """The re-simulated design did not stall on the sizing cycle (a failed design never passes)."""
+    return ~table[f"{SIM}stalled"].to_numpy(dtype=bool)
 
 
 def rule_mass(table: pd.DataFrame, max_kg: float) -> np.ndarray:
@@ -165,8 +170,11 @@ def screening_rules(screen) -> list[ScreenRule]:
     return [
         ScreenRule("gen_below_motor", bool(screen.gen_below_motor), "p_gen_kw < p_mot_kw",
                    rule_gen_below_motor),
-        ScreenRule("speed_dev_max", True, f"sim_speed_dev <= {screen.speed_dev_max_kmh:g} km/h",
-                   lambda t: rule_speed_dev(t, screen.speed_dev_max_kmh), float(screen.speed_dev_max_kmh)),
+        ScreenRule("not_stalled", True, "not sim_stalled (stood still while the sizing cycle asked to move)",
+                   rule_not_stalled),
+        ScreenRule("speed_dev_max", True,
+                   f"sim_speed_dev <= {screen.speed_dev_max:g} (share of the cycle off the trace)",
+                   lambda t: rule_speed_dev(t, screen.speed_dev_max), float(screen.speed_dev_max)),
         ScreenRule("mass_max", True, f"sim_m_veh <= {screen.mass_max_kg:g} kg",
                    lambda t: rule_mass(t, screen.mass_max_kg), float(screen.mass_max_kg)),
         ScreenRule("buildable_gear_set", bool(screen.buildable_gear_set),
@@ -369,7 +377,7 @@ def table_schema(table: pd.DataFrame) -> pa.Schema:
 
 __all__ = [
     "nondominated_mask", "sense_of", "objective_matrix", "merge_fronts", "algo_names",
-    "rule_gen_below_motor", "rule_speed_dev", "rule_mass", "rule_buildable_gear_set", "ScreenRule",
+    "rule_gen_below_motor", "rule_not_stalled", "rule_speed_dev", "rule_mass", "rule_buildable_gear_set", "ScreenRule",
     "screening_rules", "apply_screening", "normalise", "ideal_distance", "rank_by", "pick_random",
     "pick_diverse", "ParetoResult", "select_designs", "table_schema", "SIM", "PRED", "FRONT_FLAGS",
 ]

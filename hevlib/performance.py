@@ -20,8 +20,10 @@ from hevlib.drive import (
     _limited_conv,
     _limited_split,
     chassis,
+    conventional_equivalent_mass_kg,
     pack_limits,
     split_design,
+    split_equivalent_mass_kg,
     split_speed_limit,
 )
 from hevlib.powertrain import conventional as conv
@@ -67,8 +69,10 @@ def _surplus(kind, v, p_dis, p_chg, ratios, d, cd, ch, E, M, G):
 @njit(cache=True)
 def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
     """kind 0: power-split hybrid, 1: conventional. Returns (f_max, t_0_100_s, v_max_kmh)."""
-    ch = chassis(row[R_MASS], c)
     d = split_design(row, c)
+    m = row[R_MASS]
+    ch = chassis(m, split_equivalent_mass_kg(row, c) if kind == 0 else
+                 conventional_equivalent_mass_kg(m, 0.0, False, cd.s_eng, c), c)
     if kind == 0:
         p_dis, p_chg = pack_limits(c.soc_init, row[R_N_BAT], c, B)
         v_lim = split_speed_limit(d)
@@ -87,7 +91,9 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
             v_avg = 0.0
             for g in range(ratios.shape[0]):
                 st_c = conv.dispatch(v, f_cmd, ratios[g], cd, E)
-                v_avg = max(v_avg, _limited_conv(v, v, v_lim, f_cmd, ratios[g], 0.0, 1.0, dt, st_c, cd, ch, E)[2])
+                engaged = v / cd.r * ratios[g] >= cd.w_launch         # clutch closed: the engine is reflected
+                ch_g = chassis(m, conventional_equivalent_mass_kg(m, ratios[g], engaged, cd.s_eng, c), c)
+                v_avg = max(v_avg, _limited_conv(v, v, v_lim, f_cmd, ratios[g], 0.0, 1.0, dt, st_c, cd, ch_g, E)[2])
         v_next = min(max(2.0 * v_avg - v, 0.0), v_lim)
         a = (v_next - v) / dt
         f_max = max(f_max, a)

@@ -26,7 +26,7 @@ from hevlib import MODEL_VERSION
 from hevlib.components import ComponentLibrary, EngineMap, MachineMap, best_efficiency_line
 from hevlib.control import PmsConfig, thresholds
 from hevlib.cycles import Cycle
-from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, design_vector
+from hevlib.design import BOOL_RESPONSES, DESIGN_VARS, OBJECTIVES, RESPONSES, design_vector
 from hevlib.drive import N_R, BatteryArrays, DriveConfig, drive_conventional, drive_hybrid
 from hevlib.params import Params
 from hevlib.performance import performance_batch
@@ -44,6 +44,8 @@ VEHICLES: tuple[str, ...] = ("hybrid", "prius", "conventional")
 #: Designs that drive less than this share of the cycle get their per-km figures on this distance
 #: (they are flagged ``cycle_met = False`` and carry a large ``e_l``), so no response is infinite.
 MIN_DISTANCE_SHARE = 0.01
+#: Unmet accessory energy (kWh) above which a run does not count as having met the cycle (round-off only).
+UNMET_TOL_KWH = 1e-9
 
 
 def engine_arrays(engine: EngineMap) -> EngineArrays:
@@ -62,7 +64,8 @@ def engine_arrays(engine: EngineMap) -> EngineArrays:
     f = np.ascontiguousarray
     return EngineArrays(float(gw[0]), float(gw[1] - gw[0]), float(gt[1]),
                         f(resample(engine.speed_rad_s, None, engine.max_torque_nm, gw)), *(f(m) for m in maps),
-                        f(p, float), f(w, float), f(t, float))
+                        f(p, float), f(w, float), f(t, float),
+                        f(resample(engine.speed_rad_s, None, engine.closed_throttle_torque_nm, gw)))
 
 
 def machine_arrays(machine: MachineMap) -> MachineArrays:
@@ -114,10 +117,12 @@ class Simulator:
                              pms.engine_min_power_kw * 1e3, pms.charge_power_fraction, pms.soc_target, sim.soc_min,
                              pms.soc_high.value)
         self._cfg = {
-            "hybrid": self._config(lib.body_conventional, lib.wheel_conventional, lib.accessory_hybrid.electrical_w),
-            "prius": self._config(lib.body_prius, lib.wheel_prius, lib.accessory_hybrid.electrical_w),
+            "hybrid": self._config(lib.body_conventional, lib.wheel_conventional, lib.accessory_hybrid.electrical_w,
+                                   lib.engine_hybrid),
+            "prius": self._config(lib.body_prius, lib.wheel_prius, lib.accessory_hybrid.electrical_w,
+                                  lib.engine_hybrid),
             "conventional": self._config(lib.body_conventional, lib.wheel_conventional,
-                                         lib.accessory_conventional.mechanical_w),
+                                         lib.accessory_conventional.mechanical_w, lib.engine_conventional),
         }
         gb = lib.gearbox.loss_coefficients
         e = lib.engine_conventional
@@ -132,24 +137,69 @@ class Simulator:
         return cls(ComponentLibrary.load(components_dir), params)
 
     # ----------------------------------------------------------------------------- configuration
-    def _config(self, body, wheel, p_acc_w: float, dt: float = 1.0) -> DriveConfig:
+    def _config(self, body, wheel, p_acc_w: float, engine: EngineMap, dt: float = 1.0) -> DriveConfig:
         sim, lib = self.params.sim, self.lib
         ps, bat = lib.power_split, lib.battery
         return DriveConfig(
-            dt=dt, mass_factor=sim.mass_factor, mu=sim.adhesion_coefficient, rho=body.air_density_kg_m3,
+            dt=dt, mu=sim.adhesion_coefficient, rho=body.air_density_kg_m3,
             g=body.gravity_m_s2, cda=body.drag_coefficient * body.frontal_area_m2, crr=wheel.rolling_resistance,
             r=wheel.radius_m, axle0_nm=wheel.axle_drag_nm_at_0kg, axle_per_kg_nm=wheel.axle_drag_nm_per_kg,
             h_over_l=body.cg_height_m / body.wheelbase_m, f_front=body.front_weight_fraction,
             soc_init=sim.soc_init, soc_min=sim.soc_min, soc_max=sim.soc_max, eta_pg=sim.planetary_efficiency,
-            eta_fd=sim.final_drive_efficiency, i_max_a=sim.pack_current_max_a, regen_frac=sim.regen_fraction_max,
-            regen_fade_mps=sim.regen_fade_kmh / 3.6, p_acc_w=float(p_acc_w),
+            eta_fd=sim.final_drive_efficiency, i_max_a=sim.pack_current_max_a,
+            brake_v_mps=np.ascontiguousarray(wheel.brake_speed_mps, float),
+            brake_share=np.ascontiguousarray(wheel.brake_driveline_share, float), p_acc_w=float(p_acc_w),
             lhv_j_per_g=lib.engine_hybrid.lhv_j_per_g, w_e_min=ps.engine_min_on_speed_rad_s,
             w_e_max=min(ps.engine_max_speed_rad_s, lib.engine_hybrid.max_speed_rad_s),
             w_m_max=min(ps.motor_max_speed_rad_s, lib.motor.max_speed_rad_s),
             w_g_max=min(ps.generator_max_speed_rad_s, lib.generator.max_speed_rad_s),
             cap_as=bat.capacity_ah * 3600.0, eta_c=bat.coulombic_efficiency, v_min_mod=bat.v_min, v_max_mod=bat.v_max,
             w_idle=lib.conventional_idle_rad_s, w_launch=lib.conventional_launch_rad_s,
+            j_wheel=wheel.inertia_kg_m2, j_eng=engine.inertia_kg_m2, j_mot=lib.motor.inertia_kg_m2,
+            j_gen=lib.generator.inertia_kg_m2, off_trace_mps=sim.cycle_met_tolerance_kmh / 3.6,
         )
+
+    def _report_failure(self, r: pd.DataFrame, failed: np.ndarray, cycle: Cycle, dist_ref_m: np.ndarray) -> None:
+        """Give the designs of ``failed`` (stalled, or drove less than ``sim.min_distance_share`` of the
+        cycle) the worst value every cycle objective can take, in place, so that a design that failed never
+        scores better than one that worked: per-km figures the failure ceiling (:meth:`_failure_ceilings`),
+        ``diff_soc`` the whole SOC window below the start, ``speed_dev`` 1 (off the trace throughout),
+        ``e_l`` the cycle's distance, ``accel_dev`` 100 %, ``eta_drivetrain`` 0. What the design really did
+        stays in ``speed_err_mean_kmh``, ``accessory_unmet_kwh`` and the traces; ``m_veh``, ``v_max``,
+        ``f_max`` and ``t_0_100_s`` are properties of the design (flat-road tests), not of the cycle run.
+        """
+        sim = self.params.sim
+        ceil = self._failure_ceilings(cycle)
+        for key in ("fc", "hc", "co", "nox"):
+            r.loc[failed, key] = np.maximum(r.loc[failed, key].to_numpy(), ceil[key])
+        r.loc[failed, "fc_soc_corrected"] = np.maximum(r.loc[failed, "fc_soc_corrected"].to_numpy(), ceil["fc"])
+        r.loc[failed, "diff_soc"] = np.maximum(r.loc[failed, "diff_soc"].to_numpy(), sim.soc_init - sim.soc_min)
+        r.loc[failed, "speed_dev"] = 1.0
+        r.loc[failed, "e_l"] = np.maximum(r.loc[failed, "e_l"].to_numpy(), dist_ref_m[failed] / 1e3)
+        r.loc[failed, "accel_dev"] = 100.0
+        r.loc[failed, "eta_drivetrain"] = 0.0
+
+    def _failure_ceilings(self, cycle: Cycle) -> dict[str, float]:
+        """Per-km ceilings reported for a design that stalled or drove less than ``sim.min_distance_share``
+        of ``cycle``.
+
+        Each is what the largest engine of the study (the design space's top ``p_eng_kw`` or the
+        conventional car's, whichever burns more) would burn or emit at its map's highest rate for the
+        whole cycle, over ``min_distance_share`` of the cycle's distance. A working design (one that drove
+        at least that share) can never exceed it, so a failed design never scores better than any
+        working one; all failed designs share it (they failed; their own per-km figures mean nothing).
+        """
+        lib, sim = self.lib, self.params.sim
+        j = DESIGN_VARS.index("p_eng_kw")
+        engines = ((lib.engine_hybrid, self.space.upper[j] / lib.engine_hybrid.peak_power_kw),
+                   (lib.engine_conventional, self.params.baseline.conventional.p_eng_kw
+                    / lib.engine_conventional.peak_power_kw))
+        km = sim.min_distance_share * cycle.distance_m / 1e3
+        out = {}
+        for key, rate in (("fc", "fuel_g_s"), ("hc", "hc_g_s"), ("co", "co_g_s"), ("nox", "nox_g_s")):
+            grams = max(float(np.max(getattr(e, rate))) * s for e, s in engines) * cycle.duration_s
+            out[key] = grams / km if key != "fc" else 100.0 * grams / lib.engine_hybrid.fuel_density_g_per_l / km
+        return out
 
     # ------------------------------------------------------------------------------- design rows
     def mass_kg(self, X: np.ndarray) -> np.ndarray:
@@ -238,7 +288,7 @@ class Simulator:
                 if progress is not None:
                     progress(min(start + batch_size, X.shape[0]), X.shape[0])
         if not frames:
-            return pd.DataFrame({k: pd.Series(dtype=bool if k == "cycle_met" else float) for k in RESPONSES})
+            return pd.DataFrame({k: pd.Series(dtype=bool if k in BOOL_RESPONSES else float) for k in RESPONSES})
         return pd.concat(frames, ignore_index=True)
 
     def trace(self, X: np.ndarray | None, cycle: Cycle, vehicle: Vehicle = "hybrid") -> pd.DataFrame:
@@ -272,6 +322,8 @@ class Simulator:
         fuel_equiv_l = e_batt / (np.clip(eta_eng * eta_gen, 0.05, 1.0) * lhv) / rho_fuel
         acc_req = o["acc_req_sum_mps2"].to_numpy()
         in_energy = e_fuel + e_batt
+        stalled = o["stuck_max_s"].to_numpy() > sim.stall_time_s
+        unmet_kwh = o["e_acc_unmet_j"].to_numpy() / 3.6e6
         r = pd.DataFrame({
             "m_veh": res.mass_kg,
             "fc": 100.0 * fuel_l / dist_km,
@@ -280,7 +332,8 @@ class Simulator:
             "co": o["co_g"].to_numpy() / dist_km,
             "nox": o["nox_g"].to_numpy() / dist_km,
             "e_l": np.maximum(o["dist_ref_m"].to_numpy() - o["dist_m"].to_numpy(), 0.0) / 1e3,
-            "speed_dev": 3.6 * o["speed_err_sum_mps"].to_numpy() / np.maximum(o["n_steps"].to_numpy(), 1.0),
+            # share of the cycle's duration off the trace by more than the tolerance (ADVISOR's 2 mph)
+            "speed_dev": o["off_trace_s"].to_numpy() / cycle.duration_s,
             "diff_soc": sim.soc_init - o["soc_end"].to_numpy(),
             "v_max": res.perf[:, 2],
             "f_max": res.perf[:, 0],
@@ -289,8 +342,15 @@ class Simulator:
             "eta_drivetrain": np.where(in_energy > 0, o["e_traction_j"].to_numpy()
                                        / np.where(in_energy > 0, in_energy, 1.0), 0.0),
             "t_0_100_s": res.perf[:, 1],
-            "cycle_met": o["max_speed_err_mps"].to_numpy() * 3.6 <= sim.cycle_met_tolerance_kmh,
+            "cycle_met": ((o["max_speed_err_mps"].to_numpy() * 3.6 <= sim.cycle_met_tolerance_kmh)
+                          & ~stalled & (unmet_kwh <= UNMET_TOL_KWH)),
+            "speed_err_mean_kmh": 3.6 * o["speed_err_sum_mps"].to_numpy() / np.maximum(o["n_steps"].to_numpy(), 1.0),
+            "stalled": stalled,
+            "accessory_unmet_kwh": unmet_kwh,
         })
+        failed = stalled | (o["dist_m"].to_numpy() < sim.min_distance_share * cycle.distance_m)
+        if failed.any():
+            self._report_failure(r, failed, cycle, o["dist_ref_m"].to_numpy())
         bad = r[list(OBJECTIVES) + ["fc_soc_corrected", "eta_drivetrain"]].isna().any(axis=1)
         if bad.any():
             i = int(np.argmax(bad.to_numpy()))

@@ -29,7 +29,7 @@ import pandas as pd
 import pyarrow as pa
 
 from hevlib.cycles import Cycle
-from hevlib.design import DESIGN_VARS, RESPONSES, design_matrix, design_vector
+from hevlib.design import BOOL_RESPONSES, DESIGN_VARS, RESPONSES, design_matrix, design_vector
 from hevlib.pareto import algo_names
 
 #: Responses of the improvement table, in its row order.
@@ -162,7 +162,8 @@ def validation_table(sim: RunsCycles, selected: pd.DataFrame, cycles: Sequence[C
         part.insert(2, "cycle", cycle.name)
         parts.append(part)
     table = pd.concat(parts, ignore_index=True)
-    table["cycle_met"] = table["cycle_met"].astype(bool)
+    for flag in BOOL_RESPONSES:
+        table[flag] = table[flag].astype(bool)
     return table
 
 
@@ -171,7 +172,7 @@ def validation_schema() -> pa.Schema:
     fields = [pa.field("vehicle", pa.string(), nullable=False), pa.field("algo", pa.string(), nullable=False),
               pa.field("cycle", pa.string(), nullable=False)]
     fields += [pa.field(v, pa.float64()) for v in DESIGN_VARS]
-    fields += [pa.field(r, pa.bool_() if r == "cycle_met" else pa.float64()) for r in RESPONSES]
+    fields += [pa.field(r, pa.bool_() if r in BOOL_RESPONSES else pa.float64()) for r in RESPONSES]
     return pa.schema(fields)
 
 

@@ -46,7 +46,7 @@ def optimise_stage(algo: str = typer.Argument(..., help=f"one of {', '.join(ALGO
     space = cfg.design_space.space()
     rules = cfg.screen if o.apply_screen_rules else None
     problem = HevProblem(surrogate, space, sim.mass_kg, cfg.baseline.conventional.test_mass_kg,
-                         speed_dev_max_kmh=rules.speed_dev_max_kmh if rules else None,
+                         speed_dev_max=rules.speed_dev_max if rules else None,
                          gen_below_motor=bool(rules and rules.gen_below_motor),
                          buildable_gear_set=bool(rules and rules.buildable_gear_set))
     result = optimise_and_resimulate(

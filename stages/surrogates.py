@@ -71,7 +71,7 @@ def _xy(df, what: str):
 def surrogates_stage(params: str = PARAMS_OPTION) -> None:
     """Fit the BNN and the regressions on the DOE; judge them; write models/, metrics and plots.
 
-    Reads params surrogate (all of it) and screen.speed_dev_max_kmh (which held-out designs count as
+    Reads params surrogate (all of it) and screen.speed_dev_max (which held-out designs count as
     followers of the cycle in the metrics)."""
     from hevlib.plots import save_figure
     from hevlib.plots.surrogates import surrogate_figures
@@ -92,7 +92,7 @@ def surrogates_stage(params: str = PARAMS_OPTION) -> None:
 
     with progress_callback(f"bnn: {cfg.surrogate.bnn.max_epochs} epochs") as cb:
         study = fit_surrogates(X, Y, Xh, Yh, cfg.surrogate, cfg.design_space.space(),
-                               cfg.screen.speed_dev_max_kmh, progress=cb)
+                               cfg.screen.speed_dev_max, progress=cb)
     bnn, reg = study.models["bnn"], study.models["regression"]
     metrics = study.metrics
     signs = compare_signs(reg, study_coef)
@@ -113,7 +113,7 @@ def surrogates_stage(params: str = PARAMS_OPTION) -> None:
     offsets = dict(zip(OBJECTIVES, bnn.target_transform_.offset, strict=True))
     logged = ", ".join(o + (f" (+{offsets[o]:.3g})" if offsets[o] else "") for o in bnn.log_targets) or "none"
     typer.echo(f"surrogates: {n['train']} train / {n['test']} test / {n['heldout']} held-out designs "
-               f"({n['heldout_followers']} follow the cycle: speed_dev <= {cfg.screen.speed_dev_max_kmh:g} km/h); "
+               f"({n['heldout_followers']} follow the cycle: speed_dev <= {cfg.screen.speed_dev_max:g}); "
                f"BNN log targets: {logged}; alpha={bnn.alpha_:.3g} beta={bnn.beta_:.3g} "
                f"gamma={bnn.gamma_:.1f} of {bnn.n_weights_} weights after {bnn.epochs_} epochs")
     typer.echo("held-out R^2 and Spearman rho, all held-out designs and the followers (fol.):\n"

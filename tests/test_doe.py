@@ -120,7 +120,7 @@ def fake_responses(X: np.ndarray) -> pd.DataFrame:
         "accel_dev": 20 * np.exp(-2 * u[:, 0] - u[:, 1]),
         "hc": 0.2 + 0.1 * u[:, 0] ** 2, "co": 0.8 + 0.3 * u[:, 3] * u[:, 0], "nox": 0.1 + 0.05 * u[:, 2],
         "e_l": np.maximum(0.0, 1.0 - 3 * u[:, 0] - 2 * u[:, 1]),
-        "speed_dev": 2 * np.exp(-3 * u[:, 0]) + 0.1 * u[:, 5],
+        "speed_dev": 0.25 * np.exp(-3 * u[:, 0]) + 0.04 * u[:, 5],
         "diff_soc": 0.05 * np.tanh(u[:, 4] - u[:, 6]),
         "v_max": 120 + 60 * np.tanh(u[:, 0] + u[:, 1] - u[:, 3]),
         "f_max": 2 + 2 * u[:, 1] + u[:, 3],
@@ -128,7 +128,10 @@ def fake_responses(X: np.ndarray) -> pd.DataFrame:
     cols["fc_soc_corrected"] = cols["fc"] + 0.1
     cols["eta_drivetrain"] = 0.3 + 0.1 * u[:, 1]
     cols["t_0_100_s"] = 8 + 6 * (1 - u[:, 0])
-    cols["cycle_met"] = cols["e_l"] <= 0.0
+    cols["stalled"] = u[:, 0] + u[:, 1] < 0.02
+    cols["cycle_met"] = (cols["e_l"] <= 0.0) & ~cols["stalled"]
+    cols["speed_err_mean_kmh"] = 10.0 * cols["speed_dev"]
+    cols["accessory_unmet_kwh"] = np.where(cols["stalled"], 0.05, 0.0)
     return pd.DataFrame(cols)[list(RESPONSES)]
 
 
@@ -171,7 +174,7 @@ def test_doe_parquet_round_trip_with_metadata_and_summary(tmp_path):
     assert meta_back["hev.cycle"] == "udds" and meta_back["hev.grade_pct"] == "20"
     assert meta_back["hev.model_version"] == MODEL_VERSION
     assert doe.is_current(meta_back, params, **doe.doe_record(params.doe))
-    other = params.model_copy(update={"sim": params.sim.model_copy(update={"mass_factor": 1.1})})
+    other = params.model_copy(update={"sim": params.sim.model_copy(update={"stall_time_s": 20.0})})
     assert not doe.is_current(meta_back, other, **doe.doe_record(params.doe))
     assert pq.read_schema(tmp_path / "doe.parquet").field("p_eng_kw").metadata[b"unit"] == b"kW"
 

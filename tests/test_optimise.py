@@ -94,6 +94,9 @@ def stand_in_simulate(X: np.ndarray) -> pd.DataFrame:
     df["eta_drivetrain"] = 0.3
     df["t_0_100_s"] = 10.0
     df["cycle_met"] = df["e_l"] < 0.5
+    df["speed_err_mean_kmh"] = 2.0 * df["speed_dev"]
+    df["stalled"] = False
+    df["accessory_unmet_kwh"] = 0.0
     return df
 
 
@@ -226,7 +229,7 @@ def test_the_mass_limit_shapes_the_front(hev_fronts):
 @pytest.mark.parametrize("algo", ALGORITHMS)
 def test_screen_rules_as_constraints_hold_on_every_front_design(algo):
     """Speed deviation (predicted), generator below motor and buildable planetary sets, in every front."""
-    problem = HevProblem(AnalyticSurrogate(), SPACE, stand_in_mass_kg, 1180.0, speed_dev_max_kmh=2.0,
+    problem = HevProblem(AnalyticSurrogate(), SPACE, stand_in_mass_kg, 1180.0, speed_dev_max=2.0,
                          gen_below_motor=True, buildable_gear_set=True)
     assert problem.constraint_names == ["mass", "speed_dev", "gen_below_motor"]
     front = optimise(problem, algo, SMALL[algo])

@@ -49,10 +49,11 @@ def synthetic_front(n: int, seed: int, objectives=OBJECTIVES) -> pd.DataFrame:
         if k == "m_veh":
             y = rng.uniform(1000, 1300, n)
         elif k == "speed_dev":
-            y = rng.uniform(0, 20, n)
+            y = rng.uniform(0, 1, n)
         df[f"pred_{k}"] = y + rng.normal(0, 0.01, n)
         df[f"sim_{k}"] = y
-    df["sim_cycle_met"] = rng.uniform(size=n) > 0.2
+    df["sim_stalled"] = rng.uniform(size=n) < 0.05
+    df["sim_cycle_met"] = (rng.uniform(size=n) > 0.2) & ~df["sim_stalled"]
     df["feasible"] = True
     df["nondominated_sim"] = True
     return df
@@ -127,11 +128,12 @@ def test_merge_names_a_missing_column():
 
 # ------------------------------------------------------------------------------------ screening
 def screening_table() -> pd.DataFrame:
-    """Rows chosen around every rule's boundary (limits 10 km/h and 1195 kg)."""
+    """Rows chosen around every rule's boundary (limits: 0.4 of the cycle off the trace, 1195 kg)."""
     return pd.DataFrame({
         "p_gen_kw": [10.0, 20.0, 30.0, 5.0, 15.0, 10.0],
         "p_mot_kw": [20.0, 20.0, 25.0, 60.0, 40.0, 50.0],         # row 1 equal (fails: strict), row 2 above
-        "sim_speed_dev": [0.0, 10.0, 10.0001, np.nan, 3.0, 9.0],  # row 1 at the limit passes; 2, 3 fail
+        "sim_speed_dev": [0.0, 0.4, 0.4001, np.nan, 0.1, 0.39],   # row 1 at the limit passes; 2, 3 fail
+        "sim_stalled": [False] * 6,
         "sim_m_veh": [1000.0, 1195.0, 1100.0, 1195.01, np.nan, 1190.0],
         "n_r": [78.0, 79.0, 60.0, 64.0, 78.0, 50.0],              # 79/30 odd, 60/44 planets 8, 78/28 sum%4
         "n_s": [30.0, 30.0, 44.0, 24.0, 28.0, 18.0],
@@ -141,18 +143,19 @@ def screening_table() -> pd.DataFrame:
 def test_each_rule_flags_exactly_its_violators():
     t = screening_table()
     assert list(~rule_gen_below_motor(t)) == [False, True, True, False, False, False]
-    assert list(~rule_speed_dev(t, 10.0)) == [False, False, True, True, False, False]
+    assert list(~rule_speed_dev(t, 0.4)) == [False, False, True, True, False, False]
     assert list(~rule_mass(t, 1195.0)) == [False, False, False, True, True, False]
     assert list(~rule_buildable_gear_set(t)) == [False, True, True, False, True, False]
     np.testing.assert_array_equal(rule_buildable_gear_set(t), gear_set_buildable(t["n_r"].astype(int),
                                                                                  t["n_s"].astype(int)))
 
 
-@pytest.mark.parametrize("rule", ["gen_below_motor", "speed_dev_max", "mass_max", "buildable_gear_set"])
+@pytest.mark.parametrize("rule", ["gen_below_motor", "not_stalled", "speed_dev_max", "mass_max",
+                                  "buildable_gear_set"])
 def test_each_rule_alone_removes_exactly_the_designs_that_violate_it(rule):
     rng = np.random.default_rng(3)
     t = synthetic_front(400, 3)
-    t["sim_speed_dev"] = rng.uniform(0, 20, len(t))
+    t["sim_speed_dev"] = rng.uniform(0, 0.6, len(t))
     screen = ScreenParams()
     rules = [r for r in screening_rules(screen) if r.name == rule]
     violators = ~rules[0].check(t)
@@ -164,7 +167,7 @@ def test_each_rule_alone_removes_exactly_the_designs_that_violate_it(rule):
 
 def test_switched_off_rules_remove_nothing_but_are_reported():
     t = screening_table()
-    screen = ScreenParams(gen_below_motor=False, buildable_gear_set=False, speed_dev_max_kmh=1e9,
+    screen = ScreenParams(gen_below_motor=False, buildable_gear_set=False, speed_dev_max=1.0,
                           mass_max_kg=1e9)
     feasible, masks, report = apply_screening(t, screening_rules(screen))
     assert list(feasible) == [True, True, True, False, False, True]  # only the NaN results fail
@@ -179,9 +182,17 @@ def test_screening_in_sequence_counts_only_designs_still_present():
     t = screening_table()
     feasible, _, report = apply_screening(t, screening_rules(ScreenParams()))
     assert list(feasible) == [True, False, False, False, False, True]
-    assert [report[r]["removed_in_sequence"] for r in report] == [2, 1, 1, 0]
-    assert [report[r]["fails_alone"] for r in report] == [2, 2, 2, 3]
+    assert [report[r]["removed_in_sequence"] for r in report] == [2, 0, 1, 1, 0]
+    assert [report[r]["fails_alone"] for r in report] == [2, 0, 2, 2, 3]
     assert report["buildable_gear_set"]["remaining_after"] == 2
+
+
+def test_a_stalled_design_is_screened_out_whatever_its_objectives():
+    t = screening_table()
+    t.loc[0, "sim_stalled"] = True                      # row 0 passes every other rule
+    feasible, masks, report = apply_screening(t, screening_rules(ScreenParams()))
+    assert not feasible[0] and not masks["not_stalled"][0]
+    assert report["not_stalled"]["fails_alone"] == 1 and report["not_stalled"]["removed_in_sequence"] == 1
 
 
 # ------------------------------------------------------------------------------- rank and pick
@@ -225,14 +236,15 @@ def _fronts():
 
 
 def test_select_designs_keeps_the_best_ranked_and_picks_among_them():
-    screen = ScreenParams(n_keep=20, n_pick=6, speed_dev_max_kmh=15.0, mass_max_kg=1250.0)
+    screen = ScreenParams(n_keep=20, n_pick=6, speed_dev_max=0.75, mass_max_kg=1250.0)
     fronts = _fronts()
     fronts["moead"].iloc[0, :] = fronts["nsga3"].iloc[0, :].to_numpy()  # one shared design
     res = select_designs(fronts, screen)
     m, c = res.merged, res.summary["counts"]
     assert c["input"] == 270 and c["merged"] == 269 and c["duplicates_removed"] == 1
     assert c["kept"] == 20 and c["picked"] == 6
-    assert (m["feasible"] == (m["nondominated"] & m["pass_gen_below_motor"] & m["pass_speed_dev_max"]
+    assert (m["feasible"] == (m["nondominated"] & m["pass_gen_below_motor"] & m["pass_not_stalled"]
+                              & m["pass_speed_dev_max"]
                               & m["pass_mass_max"] & m["pass_buildable_gear_set"])).all()
     assert set(m.loc[m["kept"], "rank"]) == set(range(1, 21))
     assert (m.loc[~m["feasible"], "rank"] == -1).all()
@@ -255,7 +267,7 @@ def test_select_designs_keeps_the_best_ranked_and_picks_among_them():
 
 def test_fewer_designs_than_n_keep_and_n_pick_are_all_kept_and_noted():
     res = select_designs({"nsga3": synthetic_front(30, 4)}, ScreenParams(n_keep=500, n_pick=400,
-                                                                          speed_dev_max_kmh=100.0))
+                                                                          speed_dev_max=1.0))
     c = res.summary["counts"]
     assert c["kept"] == c["feasible"] == c["picked"] > 0
     assert any("fewer than n_keep" in n for n in res.summary["notes"])
@@ -265,7 +277,7 @@ def test_fewer_designs_than_n_keep_and_n_pick_are_all_kept_and_noted():
 def test_non_finite_objectives_are_dropped_before_dominance():
     front = synthetic_front(20, 6)
     front.loc[3, "sim_fc"] = np.nan
-    res = select_designs({"moga": front}, ScreenParams(n_keep=5, n_pick=2, speed_dev_max_kmh=100.0))
+    res = select_designs({"moga": front}, ScreenParams(n_keep=5, n_pick=2, speed_dev_max=1.0))
     row = res.merged[res.merged["design_id"] == "moga-3"].iloc[0]
     assert not row["finite"] and not row["nondominated"] and res.summary["counts"]["non_finite"] == 1
 
@@ -273,7 +285,7 @@ def test_non_finite_objectives_are_dropped_before_dominance():
 def test_any_number_of_objectives():
     objectives = ("a", "b", "c")
     front = synthetic_front(50, 8, objectives=objectives)
-    front["sim_speed_dev"], front["sim_m_veh"] = 1.0, 1000.0
+    front["sim_speed_dev"], front["sim_m_veh"] = 0.1, 1000.0
     screen = ScreenParams(n_keep=10, n_pick=4, pick="diverse", gen_below_motor=False,
                           buildable_gear_set=False)
     res = select_designs({"nsga3": front}, screen, objectives)

@@ -63,6 +63,7 @@ class FakeSimulator:
         row = {r: float(base.get(r, 1.0)) for r in RESPONSES}
         row["fc"] *= k
         row["cycle_met"] = vehicle != "hybrid" or bool(x[0] > 40)
+        row["stalled"] = False
         return row
 
     def run(self, X, cycle, vehicle="hybrid", batch_size=1000, progress=None):
@@ -161,7 +162,7 @@ def test_summary_reports_the_study_table_and_downsizing():
     assert "hwfet" in s["by_cycle"] and "ftp" not in s["by_cycle"]
     json.dumps(s)  # plain JSON types only
     pareto = select_designs({"nsga3": synthetic_front(40, 1)},
-                            ScreenParams(n_keep=5, n_pick=3, speed_dev_max_kmh=100, mass_max_kg=2000)).summary
+                            ScreenParams(n_keep=5, n_pick=3, speed_dev_max=1.0, mass_max_kg=2000)).summary
     text = build_summary(pareto, s, table, _selected().assign(rank=[1, 2, 3]), {"Trade-offs": "plots/x.png"})
     assert "| m_veh | % |" in text and "n/a" in text and "![Trade-offs](plots/x.png)" in text
     assert "## Robustness check: hwfet" in text and "moga-0" in text and "conventional" in text
@@ -188,7 +189,7 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
         _cycle(name).to_parquet(f"data/cycles/{name}.parquet")
     res = select_designs({"nsga3": synthetic_front(40, 1), "moead": synthetic_front(30, 2),
                           "moga": synthetic_front(30, 3)},
-                         ScreenParams(n_keep=10, n_pick=4, speed_dev_max_kmh=100, mass_max_kg=2000))
+                         ScreenParams(n_keep=10, n_pick=4, speed_dev_max=1.0, mass_max_kg=2000))
     write_parquet("data/pareto/selected.parquet", res.selected)
     Path("reports").mkdir()
     Path("reports/pareto.json").write_text(json.dumps(res.summary))
@@ -210,7 +211,7 @@ def test_summary_says_so_when_nothing_passed_screening():
     table = validation_table(FakeSimulator(), _selected().iloc[:0], [_cycle("ftp")], prius_x)
     s = summarise(table, ["nsga3"], ["ftp"], 70.0)
     assert s["improvement"]["nsga3"]["vs_prius"]["fc"] is None and s["best_design"] is None
-    res = select_designs({"nsga3": synthetic_front(20, 1)}, ScreenParams(speed_dev_max_kmh=1e-6))
+    res = select_designs({"nsga3": synthetic_front(20, 1)}, ScreenParams(speed_dev_max=1e-6))
     assert res.summary["counts"]["picked"] == 0
     text = build_summary(res.summary, s, table, res.selected, {})
     assert "No design passed the screening" in text and "`speed_dev_max`" in text

@@ -1,7 +1,7 @@
 """Surrogate figures: parity plots of all eleven objectives and the BNN's evidence training curve.
 
 Parity plots are readable despite the few designs that barely move on the sizing cycle: those that
-fail the screening rule (simulated ``speed_dev`` above ``screen.speed_dev_max_kmh``) are drawn as faint
+fail the screening rule (simulated ``speed_dev`` above ``screen.speed_dev_max``) are drawn as faint
 triangles, and the heavy-tailed objectives (the BNN's ``log_targets``) get symmetric-log axes (linear
 within a decade of zero, so the zero-fuel designs that never move still show).
 
@@ -24,17 +24,17 @@ _STYLE = {"train": dict(color="0.6", marker=".", s=10, alpha=0.6),
 
 
 def parity_figure(sets: dict[str, tuple[np.ndarray, np.ndarray]], title: str, *,
-                  log_objectives: tuple[str, ...] = (), speed_dev_max_kmh: float | None = None) -> plt.Figure:
+                  log_objectives: tuple[str, ...] = (), speed_dev_max: float | None = None) -> plt.Figure:
     """Predicted against simulated value for every objective (one panel each, 3 x 4 grid).
 
     ``sets`` maps a split name (``train``, ``test``, ``heldout``) to ``(Y_true, Y_pred)``, (n, 11) in
     ``OBJECTIVES`` order. Each panel gives the R^2 and Spearman rho of the held-out set (or of the last
-    set given) and, with ``speed_dev_max_kmh``, the R^2 of its designs that follow the cycle; designs
+    set given) and, with ``speed_dev_max``, the R^2 of its designs that follow the cycle; designs
     that do not are faint triangles. ``log_objectives`` get symmetric-log axes.
     """
     fig, axes = plt.subplots(3, 4, figsize=(13, 9.5))
     ref = "heldout" if "heldout" in sets else list(sets)[-1]
-    follows = {name: (np.ones(len(yt), bool) if speed_dev_max_kmh is None else followers(yt, speed_dev_max_kmh))
+    follows = {name: (np.ones(len(yt), bool) if speed_dev_max is None else followers(yt, speed_dev_max))
                for name, (yt, _) in sets.items()}
     for k, (obj, ax) in enumerate(zip(OBJECTIVES, axes.flat, strict=False)):
         lo, hi = np.inf, -np.inf
@@ -43,7 +43,7 @@ def parity_figure(sets: dict[str, tuple[np.ndarray, np.ndarray]], title: str, *,
             ax.scatter(yt[ok, k], yp[ok, k], label=name, **style)
             if not ok.all():
                 faint = {**style, "marker": "^", "alpha": 0.3}
-                ax.scatter(yt[~ok, k], yp[~ok, k], label=f"{name}, speed_dev > {speed_dev_max_kmh:g} km/h", **faint)
+                ax.scatter(yt[~ok, k], yp[~ok, k], label=f"{name}, speed_dev > {speed_dev_max:g}", **faint)
             lo, hi = min(lo, yt[:, k].min(), yp[:, k].min()), max(hi, yt[:, k].max(), yp[:, k].max())
         if obj in log_objectives:
             _symlog(ax, np.concatenate([yt[:, k] for yt, _ in sets.values()]))
@@ -54,7 +54,7 @@ def parity_figure(sets: dict[str, tuple[np.ndarray, np.ndarray]], title: str, *,
         yt, yp = sets[ref]
         text = f"R$^2_{{{ref}}}$={r2_score(yt, yp)[k]:.3f} $\\rho$={spearman(yt[:, k], yp[:, k])[0]:.3f}"
         ok = follows[ref]
-        if speed_dev_max_kmh is not None and ok.sum() > 1:
+        if speed_dev_max is not None and ok.sum() > 1:
             text += f"\nR$^2$ followers ({int(ok.sum())})={r2_score(yt[ok], yp[ok])[k]:.3f}"
         ax.set_title(f"{obj} [{OBJECTIVE_UNITS[obj]}]", fontsize=9)
         ax.text(0.03, 0.97, text, transform=ax.transAxes, fontsize=7, va="top")
@@ -108,7 +108,7 @@ def surrogate_figures(study) -> dict[str, plt.Figure]:
     figures = {
         f"parity_{m}.png": parity_figure({s: (study.data[s][1], pred[s]) for s in ("train", "heldout")},
                                          title=f"{m}: predicted vs simulated", log_objectives=bnn.log_targets,
-                                         speed_dev_max_kmh=study.speed_dev_max_kmh)
+                                         speed_dev_max=study.speed_dev_max)
         for m, pred in study.predictions.items()
     }
     figures["bnn_training.png"] = training_curve_figure(bnn.history_, n_weights=bnn.n_weights_)

@@ -29,12 +29,20 @@ class EngineArrays(NamedTuple):
     line_p: np.ndarray     # best-efficiency line: shaft power, W (uniform grid from 0)
     line_w: np.ndarray     # ... and the speed that burns least fuel at that power, rad/s
     line_t: np.ndarray     # ... and its torque (line_p / line_w), N m, increasing with power
+    t_drag: np.ndarray     # closed-throttle (motored, fuel cut) torque on the speed grid, N m, <= 0
 
 
 @njit(cache=True, inline="always")
 def max_torque(w: float, s: float, e: EngineArrays) -> float:
     i, f = cell(w, e.w0, e.dw, e.t_max.shape[0])
     return (e.t_max[i] + f * (e.t_max[i + 1] - e.t_max[i])) * s
+
+
+@njit(cache=True, inline="always")
+def drag_torque(w: float, s: float, e: EngineArrays) -> float:
+    """Torque (<= 0) of the engine scaled by ``s`` when it is spun with its fuel cut (closed throttle)."""
+    i, f = cell(w, e.w0, e.dw, e.t_drag.shape[0])
+    return (e.t_drag[i] + f * (e.t_drag[i + 1] - e.t_drag[i])) * s
 
 
 @njit(cache=True, inline="always")

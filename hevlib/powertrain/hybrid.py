@@ -6,9 +6,14 @@ target engine power), :func:`dispatch` returns a :class:`SplitState` that honour
 full load and speed window, generator torque and speed, motor torque, battery power. What the
 driveline cannot deliver shows up as ``f_del < f_req`` (traction) or as friction braking (braking).
 
-Torque conventions (steady state, inertias lumped into the vehicle's mass factor):
-carrier torque ``t_e`` splits into ``t_e k/(1+k)`` on the ring (times the gear-set efficiency) and
-``t_e/(1+k)`` on the sun, which the generator reacts with ``t_g = -t_e/(1+k)`` (``k = N_r/N_s``).
+Torque conventions (steady state; the rotor inertias the vehicle accelerates are in its equivalent
+mass, :func:`hevlib.drive.split_equivalent_mass_kg`): carrier torque ``t_e`` splits into ``t_e k/(1+k)``
+on the ring (times the gear-set efficiency) and ``t_e/(1+k)`` on the sun, which the generator reacts
+with ``t_g = -t_e/(1+k)`` (``k = N_r/N_s``).
+
+An engine that is off but would leave the generator above its speed limit if it stood still (high ring
+speed) is *spun*: the gear set turns it at the lowest speed that keeps the sun within its limit, its
+fuel cut, and it drags with its closed-throttle torque (``running`` False, ``w_e`` > 0, ``t_e`` <= 0).
 """
 
 from __future__ import annotations
@@ -17,7 +22,7 @@ from typing import NamedTuple
 
 from numba import njit
 
-from hevlib.powertrain.engine import EngineArrays, line_speed, max_torque
+from hevlib.powertrain.engine import EngineArrays, drag_torque, line_speed, max_torque
 from hevlib.powertrain.machines import MachineArrays, electric_power, torque_for_power, torque_limit
 from hevlib.powertrain.planetary import carrier_speed_window, sun_speed
 
@@ -248,24 +253,35 @@ def dispatch(lim: SplitLimits, f_req: float, engine_on: bool, p_e_target: float,
                 p_batt = p_m_e + p_g_e + p_acc
         t_r = t_r_eng + t_m
     else:
-        w_e, t_e, t_g, p_g_e = 0.0, 0.0, 0.0, 0.0
-        w_g = sun_speed(0.0, w_r, d.n_r, d.n_s)
-        t_m = min(max(t_r_drive, -t_m_cap), t_m_cap)
+        w_e, t_e, t_g, p_g_e, t_r_eng = 0.0, 0.0, 0.0, 0.0, 0.0
+        if generator_overspeed_if_stopped(w_r, d):
+            # spun, fuel cut: the lowest carrier speed that keeps the sun at its limit; the engine's drag
+            # torque is reacted by the generator on the sun and taken from the ring (through the gear set)
+            k = d.n_r / d.n_s
+            w_e = (d.n_r * w_r - d.n_s * d.w_g_max) / (d.n_r + d.n_s)
+            t_e = max(drag_torque(w_e, d.s_eng, E), -(1.0 + k) * torque_limit(d.w_g_max, d.s_gen, G))
+            t_g = -t_e / (1.0 + k)
+            t_r_eng = t_e * k / (1.0 + k) / d.eta_pg
+        w_g = sun_speed(w_e, w_r, d.n_r, d.n_s)
+        if t_g != 0.0:
+            p_g_e = electric_power(t_g, w_g, d.s_gen, G)
+        t_m = min(max(t_r_drive - t_r_eng, -t_m_cap), t_m_cap)
         p_m_e = electric_power(t_m, w_r, d.s_mot, M)
-        p_batt = p_m_e + p_acc
+        p_batt = p_m_e + p_g_e + p_acc
         if p_batt > p_dis:
-            if p_dis - p_acc <= 0.0:
-                # battery at its limit and no other source: no traction, accessory load shed
+            if p_dis - p_acc - p_g_e <= 0.0:
+                # battery at its limit and no other source: no traction; what the accessories cannot get
+                # is booked as unmet (p_acc below the demand), never silently dropped
                 t_m = min(t_m, 0.0)
                 p_m_e = electric_power(t_m, w_r, d.s_mot, M)
-                p_acc = max(min(p_acc, p_dis - p_m_e), 0.0)
-            else:
-                t_m = torque_for_power(p_dis - p_acc, w_r, d.s_mot, t_m, M)
+                p_acc = max(min(p_acc, p_dis - p_m_e - p_g_e), 0.0)
+            elif t_m > 0.0:
+                t_m = torque_for_power(p_dis - p_acc - p_g_e, w_r, d.s_mot, t_m, M)
                 p_m_e = electric_power(t_m, w_r, d.s_mot, M)
         elif p_batt < -p_chg and t_m < 0.0:
-            t_m = torque_for_power(min(-p_chg - p_acc, -1e-9), w_r, d.s_mot, -t_m, M)
+            t_m = torque_for_power(min(-p_chg - p_acc - p_g_e, -1e-9), w_r, d.s_mot, -t_m, M)
             p_m_e = electric_power(t_m, w_r, d.s_mot, M)
-        p_batt = p_m_e + p_acc
-        t_r = t_m
+        p_batt = p_m_e + p_g_e + p_acc
+        t_r = t_r_eng + t_m
     return SplitState(wheel_force_for_ring_torque(t_r, d), running, w_e, t_e, w_r, t_m, w_g, t_g,
                       p_m_e, p_g_e, p_acc, p_batt, t_r)

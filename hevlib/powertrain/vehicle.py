@@ -2,7 +2,9 @@
 
 Forces in N, speeds in m/s; the road grade enters as ``sin_t``/``cos_t`` of its angle
 (``theta = atan(rise/run)``, precomputed once per cycle step by :func:`grade_trig`). ``m`` is the test mass;
-``m_eff = m * mass_factor`` adds the rotating inertia to the translational mass. Road loads are
+``m_eff`` adds the rotating inertias the vehicle accelerates (wheels, and the driveline's rotors reflected
+through its ratios: :func:`hevlib.drive.split_equivalent_mass_kg`, :func:`hevlib.drive.conventional_equivalent_mass_kg`)
+to the translational mass. Road loads are
 evaluated at the step's mean speed ``v_avg``, so that with ``a = 2 (v_avg - v0) / dt``
 
     F_traction + F_brake = m_eff * a + F_road(v_avg)

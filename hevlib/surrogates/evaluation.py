@@ -3,7 +3,7 @@
 Both models are fitted on the same seeded ``train_fraction`` of the DOE, so ``train``, ``test`` and
 ``heldout`` mean the same rows for both; ``heldout`` is a fresh Latin hypercube simulated separately
 and never used in fitting. ``heldout_followers`` are the held-out designs that follow the sizing cycle
-well enough to survive screening (simulated ``speed_dev`` at most ``screen.speed_dev_max_kmh``): the
+well enough to survive screening (simulated ``speed_dev`` at most ``screen.speed_dev_max``): the
 region the optimisers search, since they constrain the predicted ``speed_dev`` to that limit. The
 whole held-out set is dominated by the few designs that barely move (per-km figures ten times the
 typical ones); the followers show how well the surrogates resolve the designs that matter.
@@ -37,7 +37,7 @@ class SurrogateStudy:
     predictions: dict       # model -> split -> Y_pred
     train_index: np.ndarray  # DOE rows in the training split
     test_index: np.ndarray
-    speed_dev_max_kmh: float  # screening limit that defines heldout_followers
+    speed_dev_max: float  # screening limit that defines heldout_followers
 
     @property
     def n_designs(self) -> dict[str, int]:
@@ -47,28 +47,28 @@ class SurrogateStudy:
     @property
     def metrics(self) -> dict:
         """``{model: {split: {objective: {"r2", "rmse", "mae", "spearman"}}}}`` for ``bnn`` and ``regression``,
-        plus ``n_designs`` (per split) and ``heldout_followers_speed_dev_max_kmh``."""
+        plus ``n_designs`` (per split) and ``heldout_followers_speed_dev_max``."""
         out: dict = {m: {s: objective_metrics(self.data[s][1], pred[s]) for s in SPLITS}
                      for m, pred in self.predictions.items()}
         out["n_designs"] = self.n_designs
-        out["heldout_followers_speed_dev_max_kmh"] = float(self.speed_dev_max_kmh)
+        out["heldout_followers_speed_dev_max"] = float(self.speed_dev_max)
         return out
 
 
-def followers(Y: np.ndarray, speed_dev_max_kmh: float) -> np.ndarray:
+def followers(Y: np.ndarray, speed_dev_max: float) -> np.ndarray:
     """(n,) bool: designs whose simulated speed deviation (column of ``Y``, (n, 11)) passes screening."""
-    return np.asarray(Y, dtype=float)[:, I_SPEED_DEV] <= speed_dev_max_kmh
+    return np.asarray(Y, dtype=float)[:, I_SPEED_DEV] <= speed_dev_max
 
 
 def fit_surrogates(X: np.ndarray, Y: np.ndarray, X_heldout: np.ndarray, Y_heldout: np.ndarray, params,
-                   space: DesignSpace, speed_dev_max_kmh: float,
+                   space: DesignSpace, speed_dev_max: float,
                    progress: Callable[[int, int], None] | None = None) -> SurrogateStudy:
     """Split, fit the BNN and the regressions, predict every split. ``params`` is ``SurrogateParams``;
-    ``speed_dev_max_kmh`` (``screen.speed_dev_max_kmh``) picks the held-out followers."""
+    ``speed_dev_max`` (``screen.speed_dev_max``) picks the held-out followers."""
     from hevlib.surrogates.bnn import BayesRegMLP  # torch only here
 
     itr, ite = train_test_split(len(X), params.train_fraction, params.split_seed)
-    keep = followers(Y_heldout, speed_dev_max_kmh)
+    keep = followers(Y_heldout, speed_dev_max)
     data = {"train": (X[itr], Y[itr]), "test": (X[ite], Y[ite]), "heldout": (X_heldout, Y_heldout),
             "heldout_followers": (X_heldout[keep], Y_heldout[keep])}
     models = {
@@ -76,7 +76,7 @@ def fit_surrogates(X: np.ndarray, Y: np.ndarray, X_heldout: np.ndarray, Y_heldou
         "regression": LinearRegressions(space).fit(*data["train"]),
     }
     predictions = {m: {s: _predict(model, data[s][0]) for s in SPLITS} for m, model in models.items()}
-    return SurrogateStudy(models, data, predictions, itr, ite, float(speed_dev_max_kmh))
+    return SurrogateStudy(models, data, predictions, itr, ite, float(speed_dev_max))
 
 
 def _predict(model, X: np.ndarray) -> np.ndarray:
