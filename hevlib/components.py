@@ -19,6 +19,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
+import re
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,8 +45,39 @@ def _ro(a) -> np.ndarray:
     return arr
 
 
+#: Keys whose name carries a unit (or is a coefficient, efficiency, ratio or share) hold numbers: a number,
+#: or (nested) lists of numbers; null stands for a value the source leaves undefined.
+_NUMERIC_KEY = re.compile(r"_(kw|w|nm|kg|rad_s|rpm|v|a|ohm|ah|m|m2|kg_m2|s|c|g_per_s|g_per_kwh|kmh|km_per_h|mph|"
+                          r"m_per_s|coefficient|efficiency|ratio|g_per_l|j_per_g|pct|n|j|w_per_k|kg_per_kw|fraction)$")
+#: Unit-named keys the ADVISOR extract fills with words on purpose (the source leaves the value undefined).
+_TEXT_ALLOWED = frozenset({"planetary_efficiency"})
+
+
+def _numbers_only(value) -> bool:
+    if value is None:                                   # undefined in the source (e.g. no voltage limit)
+        return True
+    if isinstance(value, bool):
+        return False
+    if isinstance(value, (int, float)):
+        return True
+    return isinstance(value, list) and all(_numbers_only(v) for v in value)
+
+
+def check_numeric_keys(data: dict, path: Path, prefix: str = "") -> None:
+    """Raise ValueError naming file and key when a unit-named key holds anything but numbers."""
+    for key, value in data.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            check_numeric_keys(value, path, f"{name}.")
+        elif _NUMERIC_KEY.search(str(key)) and key not in _TEXT_ALLOWED and not _numbers_only(value):
+            shown = repr(value) if not isinstance(value, list) else "a list with a non-number"
+            raise ValueError(f"{path}: {name}: {shown} is not a number")
+
+
 def _read_yaml(path: Path) -> dict:
-    return read_yaml_mapping(path, what="component file")
+    data = read_yaml_mapping(path, what="component file")
+    check_numeric_keys(data, path)
+    return data
 
 
 def _need(data: dict, key: str, path: Path):
@@ -301,7 +333,7 @@ class ComponentLibrary:
                 written.append(path)
             else:
                 index[f.name] = value
-        write_json(out_dir / "library.json", index)
+        write_json(out_dir / "library.json", index, digits=None)         # exact: the simulator reads it
         for stale in set(out_dir.glob("*.npz")) - set(written):
             stale.unlink()
         return [*written, out_dir / "library.json"]

@@ -196,18 +196,39 @@ def key_on_mask(time_s: np.ndarray, key_off_intervals_s) -> np.ndarray:
 
 
 def load_cycle(path: str | Path, *, name: str, step_s: float = 1.0, grade: float = 0.0,
-               key_off_intervals_s=()) -> Cycle:
+               key_off_intervals_s=(), expected_points: int | None = None) -> Cycle:
     """Raw CSV -> checked, resampled :class:`Cycle` on a constant grade (rise/run).
 
-    ``key_off_intervals_s`` are in the raw file's time; the cycle's time starts at 0.
+    ``key_off_intervals_s`` are in the raw file's time; the cycle's time starts at 0. ``expected_points``
+    (from ``cycles.yaml``): the number of data rows the file must have, so a truncated file is refused.
     """
     time_s, speed = read_raw_cycle(path)
+    if expected_points is not None and len(time_s) != expected_points:
+        raise CycleError(f"{path}: {len(time_s)} data rows, but cycles.yaml gives {expected_points} points "
+                         f"(truncated or padded file)")
     try:
         grid, v = resample(time_s, speed, step_s)
     except CycleError as err:
         raise CycleError(f"{path}: {err}") from None
     return Cycle(name, grid - grid[0], v, np.full(len(grid), float(grade)),
                  key_on_mask(grid, key_off_intervals_s))
+
+
+def read_expected_points(raw_dir: str | Path) -> dict[str, int]:
+    """``{csv file name: number of points}`` from ``cycles.yaml`` in ``raw_dir`` (empty if absent)."""
+    path = Path(raw_dir) / "cycles.yaml"
+    if not path.exists():
+        return {}
+    meta = read_yaml_mapping(path, what="cycle metadata file", error=CycleError, empty_ok=True)
+    out = {}
+    for key, entry in (meta.get("cycles") or {}).items():
+        points = entry.get("points") if isinstance(entry, dict) else None
+        if points is None:
+            continue
+        if isinstance(points, bool) or not isinstance(points, int) or points < 2:
+            raise CycleError(f"{path}: cycles.{key}.points: {points!r} is not a whole number of points")
+        out[str(entry.get("file"))] = points
+    return out
 
 
 def read_key_off_intervals(raw_dir: str | Path) -> dict[str, list[tuple[float, float]]]:
@@ -233,8 +254,9 @@ def build_cycles(cfg: CyclesParams) -> dict[str, Cycle]:
     if not raw.is_dir():
         raise FileNotFoundError(f"{raw}: cycle directory missing (params cycles.raw_dir)")
     key_off = read_key_off_intervals(raw)
+    points = read_expected_points(raw)
     return {name: load_cycle(raw / spec.file, name=name, step_s=cfg.step_s, grade=spec.grade_pct / 100.0,
-                             key_off_intervals_s=key_off.get(spec.file, ()))
+                             key_off_intervals_s=key_off.get(spec.file, ()), expected_points=points.get(spec.file))
             for name, spec in cfg.cycles.items()}
 
 

@@ -93,7 +93,26 @@ def design_matrix(table: pd.DataFrame, *, what: str = "designs") -> np.ndarray:
     missing = [v for v in DESIGN_VARS if v not in table.columns]
     if missing:
         raise ValueError(f"{what}: missing design-variable column(s) {', '.join(missing)}")
-    return table[list(DESIGN_VARS)].to_numpy(dtype=float)
+    cols = []
+    for v in DESIGN_VARS:
+        raw = table[v]
+        num = pd.to_numeric(raw, errors="coerce") if raw.dtype == object or raw.dtype.kind in "OUSb" else raw
+        if raw.dtype.kind == "b" or num.isna().any():
+            i = int(np.argmax(num.isna().to_numpy() | (raw.dtype.kind == "b")))
+            raise ValueError(f"{what}: {v} is not a number in row {i + 1} ({raw.iloc[i]!r})")
+        cols.append(num.to_numpy(dtype=float))
+    return np.column_stack(cols) if cols and len(table) else np.empty((0, len(DESIGN_VARS)))
+
+
+def read_designs(path) -> np.ndarray:
+    """A user's designs file (CSV or Parquet) as an (n >= 1, 7) matrix; one-line errors name the file and
+    the column and row (empty file, header only, a missing column, text or a flag where a number belongs)."""
+    from hevlib.io import read_table
+
+    X = design_matrix(read_table(path), what=str(path))
+    if len(X) == 0:
+        raise ValueError(f"{path}: no designs (a header but no rows)")
+    return X
 
 
 def gear_set_buildable(n_r: np.ndarray, n_s: np.ndarray, n_planets: int = 4, min_planet_teeth: int = 9) -> np.ndarray:

@@ -35,23 +35,33 @@ def atomic_path(path: str | os.PathLike):
             os.remove(tmp)
 
 
-def _jsonable(obj):
+#: Significant digits of every float written to a JSON report.
+JSON_SIGNIFICANT_DIGITS = 12
+
+
+def _jsonable(obj, digits: int | None = JSON_SIGNIFICANT_DIGITS):
     if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
+        return {str(k): _jsonable(v, digits) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
+        return [_jsonable(v, digits) for v in obj]
     if isinstance(obj, np.generic):
         obj = obj.item()
     if isinstance(obj, np.ndarray):
-        return [_jsonable(v) for v in obj.tolist()]
-    if isinstance(obj, float) and not np.isfinite(obj):
-        return None
+        return [_jsonable(v, digits) for v in obj.tolist()]
+    if isinstance(obj, float):
+        if not np.isfinite(obj):
+            return None
+        # reports: 12 significant digits, far below any tolerance and above the last-bit noise of threaded
+        # reductions, so a report (a DVC metric, in git) has the same bytes whenever its inputs are the same
+        return float(f"{obj:.{digits}g}") if digits else obj
     return obj
 
 
-def write_json(path: str | os.PathLike, data: dict) -> None:
+def write_json(path: str | os.PathLike, data: dict, *, digits: int | None = JSON_SIGNIFICANT_DIGITS) -> None:
+    """Write ``data`` as indented JSON (NaN/inf as null), atomically; floats to ``digits`` significant
+    digits (``None``: exact, for data that must round-trip)."""
     with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(_jsonable(data), indent=2, sort_keys=False) + "\n")
+        tmp.write_text(json.dumps(_jsonable(data, digits), indent=2, sort_keys=False) + "\n")
 
 
 def write_text(path: str | os.PathLike, text: str) -> None:
@@ -80,6 +90,21 @@ def save_with(path: str | os.PathLike, writer: Callable[[Path], None]) -> None:
         writer(tmp)
 
 
+class UniqueKeyLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that refuses a mapping with the same key twice (YAML leaves it to the loader;
+    PyYAML keeps the last, silently)."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"duplicate key {key!r} (line {key_node.start_mark.line + 1})", key_node.start_mark)
+            seen.add(key)
+        return super().construct_mapping(node, deep=deep)
+
+
 def read_yaml_mapping(path: str | os.PathLike, *, what: str, error: type[Exception] = ValueError,
                       missing_error: type[Exception] = FileNotFoundError, empty_ok: bool = False) -> dict:
     """A YAML file whose top level is a mapping, with one-line errors naming the file (``what``: what
@@ -88,7 +113,7 @@ def read_yaml_mapping(path: str | os.PathLike, *, what: str, error: type[Excepti
     if not path.exists():
         raise missing_error(f"{path}: no such {what}")
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml.load(path.read_text(), Loader=UniqueKeyLoader)  # noqa: S506 (a SafeLoader subclass)
     except yaml.YAMLError as err:
         raise error(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
     if data is None and empty_ok:
@@ -116,10 +141,15 @@ def read_table(path: str | os.PathLike) -> pd.DataFrame:
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such file")
-    if path.suffix.lower() == ".csv":
-        return pd.read_csv(path)
-    if path.suffix.lower() in (".parquet", ".pq"):
-        return pd.read_parquet(path)
+    try:
+        if path.suffix.lower() == ".csv":
+            return pd.read_csv(path)
+        if path.suffix.lower() in (".parquet", ".pq"):
+            return pd.read_parquet(path)
+    except pd.errors.EmptyDataError:
+        raise ValueError(f"{path}: empty file (no header, no rows)") from None
+    except (pd.errors.ParserError, UnicodeDecodeError, pa.ArrowInvalid) as err:
+        raise ValueError(f"{path}: not a readable table ({str(err).strip().splitlines()[0]})") from None
     raise ValueError(f"{path}: unsupported table format (use .csv or .parquet)")
 
 

@@ -598,8 +598,11 @@ def surrogate_error(pred: np.ndarray, sim: np.ndarray, span: np.ndarray | None =
 
 
 def front_report(front: Front, table: pd.DataFrame, hv: HvSettings, *, settings: AlgoParams,
-                 resim_runtime_s: float, n_misleading: int = 3) -> dict:
-    """``reports/optimise_<algo>.json``: the figures of the issue's contract plus the settings used."""
+                 n_misleading: int = 3) -> dict:
+    """``reports/optimise_<algo>.json``: the figures of the issue's contract plus the settings used.
+
+    Deterministic (a DVC metric: the same inputs give the same bytes); wall times are not in it but in
+    :func:`runtimes`."""
     sim_Y = table[[f"sim_{k}" for k in OBJECTIVES]].to_numpy(dtype=float)
     pred_Y = table[[f"pred_{k}" for k in OBJECTIVES]].to_numpy(dtype=float)
     finite = np.all(np.isfinite(sim_Y), axis=1)
@@ -615,9 +618,6 @@ def front_report(front: Front, table: pd.DataFrame, hv: HvSettings, *, settings:
         "algo": front.algo,
         "surrogate": settings.surrogate,
         "front_size": n,
-        "runtime_s": front.runtime_s,
-        "runtime_resim_s": resim_runtime_s,
-        "runtime_total_s": front.runtime_s + resim_runtime_s,
         "n_evaluations": front.n_evaluations,
         "n_candidates": front.n_candidates,
         "n_infeasible_dropped": front.n_infeasible,
@@ -640,11 +640,18 @@ def front_report(front: Front, table: pd.DataFrame, hv: HvSettings, *, settings:
     }
 
 
+def runtimes(front: Front, resim_runtime_s: float) -> dict:
+    """Wall times of one optimise run (s): machine-dependent, so kept out of the metrics report."""
+    return {"algo": front.algo, "runtime_s": front.runtime_s, "runtime_resim_s": resim_runtime_s,
+            "runtime_total_s": front.runtime_s + resim_runtime_s}
+
+
 @dataclass(frozen=True)
 class StudyResult:
     front: Front
     table: pd.DataFrame
     report: dict
+    runtimes: dict = field(default_factory=dict)
 
     @property
     def schema(self) -> pa.Schema:
@@ -660,9 +667,9 @@ def optimise_and_resimulate(problem: HevProblem, algo: str, settings: AlgoParams
     resim_s = time.perf_counter() - t0
     front, sim, n_stalled = drop_stalled(front, sim)
     table = front_table(front, sim, problem)
-    report = front_report(front, table, hv, settings=settings, resim_runtime_s=resim_s)
+    report = front_report(front, table, hv, settings=settings)
     report["n_stalled_dropped"] = n_stalled
-    return StudyResult(front, table, report)
+    return StudyResult(front, table, report, runtimes(front, resim_s))
 
 
 def drop_stalled(front: Front, sim: pd.DataFrame) -> tuple[Front, pd.DataFrame, int]:
@@ -681,7 +688,7 @@ def drop_stalled(front: Front, sim: pd.DataFrame) -> tuple[Front, pd.DataFrame, 
 __all__ = [
     "ALGORITHMS", "Front", "HevProblem", "HvSettings", "IntegerRepair", "StudyResult", "doe_normalisation",
     "drop_stalled", "estimate_normalisation", "front_report", "front_schema", "front_table", "moead", "moga", "nsga3",
-    "optimise",
-    "optimise_and_resimulate", "reference_directions", "resimulate", "run", "surrogate_error", "to_minimisation",
+    "optimise", "optimise_and_resimulate", "reference_directions", "resimulate", "run", "runtimes", "surrogate_error",
+    "to_minimisation",
     "weighted_sum_ranks",
 ]

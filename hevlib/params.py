@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES, DesignSpace
 from hevlib.io import read_yaml_mapping
@@ -21,7 +21,15 @@ class ParamsError(ValueError):
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+    """Unknown keys forbidden; strict types: no bool or float for an int, no bool or string for a float
+    (an int is a valid float), no number for a string."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+
+def _list_to_tuple(v):
+    """YAML has no tuples: a list of the right length stands for one (its items stay strictly typed)."""
+    return tuple(v) if isinstance(v, list) else v
 
 
 Pos = Annotated[float, Field(gt=0)]
@@ -152,7 +160,7 @@ class PmsParams(_Strict):
 
 
 # ----------------------------------------------------------------------------------- design space
-Bounds = tuple[float, float]
+Bounds = Annotated[tuple[float, float], BeforeValidator(_list_to_tuple)]
 
 
 class DesignSpaceParams(_Strict):
@@ -299,7 +307,7 @@ class Params(_Strict):
     screen: ScreenParams = ScreenParams()
     validation: ValidateParams = Field(ValidateParams(), alias="validate")
 
-    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True, strict=True)
 
 
 def _format_error(err: ValidationError, source: str = "params.yaml") -> str:

@@ -19,6 +19,7 @@ from stages.surrogates import HELDOUT
 MODELS_DIR = Path("models")
 FRONTS_DIR = Path("data/pareto")
 REPORTS_DIR = Path("reports")
+LOGS_DIR = Path("logs")          # wall times and other machine-dependent figures (git-ignored, not metrics)
 
 
 @app.command("optimise")
@@ -57,10 +58,11 @@ def optimise_stage(algo: str = typer.Argument(..., help=f"one of {', '.join(ALGO
     write_parquet(FRONTS_DIR / f"{algo}.parquet", result.table, result.schema,
                   metadata={"algo": algo, "surrogate": settings.surrogate, "cycle": cycle.name})
     write_json(REPORTS_DIR / f"optimise_{algo}.json", result.report)
+    write_json(LOGS_DIR / f"optimise_{algo}.json", result.runtimes)       # wall times: not a metric, not in git
     save_figure(fig, REPORTS_DIR / "plots" / f"optimise_{algo}.png")
-    r = result.report
-    typer.echo(f"optimise {algo}: {r['front_size']} designs in {r['runtime_s']:.1f} s "
-               f"({r['n_evaluations']} evaluations) + {r['runtime_resim_s']:.1f} s re-simulation; "
+    r, t = result.report, result.runtimes
+    typer.echo(f"optimise {algo}: {r['front_size']} designs in {t['runtime_s']:.1f} s "
+               f"({r['n_evaluations']} evaluations) + {t['runtime_resim_s']:.1f} s re-simulation; "
                f"HV {r['hypervolume']:.4g} +- {r['hypervolume_se']:.2g}, "
                f"{100 * (r['share_nondominated_after_resim'] or 0):.0f} % still non-dominated "
                f"-> {FRONTS_DIR / (algo + '.parquet')}")

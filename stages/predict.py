@@ -7,8 +7,7 @@ from typing import Annotated
 
 import typer
 
-from hevlib.design import design_matrix
-from hevlib.io import read_table
+from hevlib.design import read_designs
 from stages.cli import app
 from stages.common import stage
 
@@ -31,7 +30,7 @@ def predict(
 
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ValueError(f"{out}: unsupported output format (use .csv or .parquet)")
-    X = design_matrix(read_table(designs), what=str(designs))
+    X = read_designs(designs)
     surrogate = load_surrogate(model, models_dir)
     table = prediction_table(surrogate, X)
     write_prediction_table(out, table)

@@ -8,8 +8,8 @@ import numpy as np
 import pandas as pd
 import typer
 
-from hevlib.design import design_matrix
-from hevlib.io import read_table, write_table
+from hevlib.design import read_designs
+from hevlib.io import write_table
 from hevlib.simulate import VEHICLES, with_inputs
 from stages.cli import app
 from stages.common import PARAMS_OPTION, cycle_named, params_from, simulator, stage
@@ -40,9 +40,11 @@ def simulate(
     if vehicle == "hybrid":
         if designs is None:
             raise ValueError("--designs: a design table is required for --vehicle hybrid")
-        X = design_matrix(read_table(designs), what=str(designs))
+        X = read_designs(designs)
         table = with_inputs(X, sim.run(X, cyc, "hybrid", batch_size=p.doe.batch_size))
     else:
+        if designs is not None:
+            raise ValueError(f"--designs: only for --vehicle hybrid ({vehicle} is a fixed car; drop --designs)")
         X = np.array([list(sim.design_of(vehicle).values())])
         table = with_inputs(X, sim.run(None, cyc, vehicle))
     table.insert(0, "vehicle", vehicle)

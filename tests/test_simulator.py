@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -331,6 +333,10 @@ def test_hev_simulate_writes_inputs_and_every_response(stage_dir):
     (["--designs", "d.csv", "--cycle", "mars"], "--cycle"),
     (["--designs", "d.csv", "--cycle", "ftp", "--vehicle", "truck"], "--vehicle"),
     (["--designs", "missing.csv", "--cycle", "ftp"], "missing.csv"),
+    (["--designs", "empty.csv", "--cycle", "ftp"], "empty.csv: empty file (no header, no rows)"),
+    (["--designs", "header.csv", "--cycle", "ftp"], "header.csv: no designs (a header but no rows)"),
+    (["--designs", "text.csv", "--cycle", "ftp"], "text.csv: i0 is not a number in row 2 ('abc')"),
+    (["--designs", "d.csv", "--cycle", "ftp", "--vehicle", "prius"], "--designs: only for --vehicle hybrid"),
 ])
 def test_hev_simulate_rejects_bad_input_with_one_line_and_no_output(stage_dir, args, message):
     from typer.testing import CliRunner
@@ -339,6 +345,9 @@ def test_hev_simulate_rejects_bad_input_with_one_line_and_no_output(stage_dir, a
 
     pd.DataFrame([PRIUS], columns=list(DESIGN_VARS)).to_csv("d.csv", index=False)
     pd.DataFrame([[90, 40, 20, 3.0, 30, 78, 30]], columns=list(DESIGN_VARS)).to_csv("bad.csv", index=False)
+    Path("empty.csv").write_text("")
+    Path("header.csv").write_text(",".join(DESIGN_VARS) + "\n")
+    Path("text.csv").write_text(",".join(DESIGN_VARS) + "\n43,31,15,3.93,25,78,30\n43,31,15,abc,25,78,30\n")
     res = CliRunner().invoke(app, ["simulate", *args, "--out", "out.csv"])
     assert res.exit_code == 1
     assert message in res.output and res.output.strip().count("\n") == 0

@@ -117,7 +117,7 @@ class LinearRegressions:
                 "n_train": self.n_train_, "df_resid": self.df_resid_, "models": models}
 
     def save(self, path: str | Path) -> None:
-        write_json(path, self.to_dict())
+        write_json(path, self.to_dict(), digits=None)                    # a model: exact coefficients
 
     @classmethod
     def load(cls, path: str | Path) -> LinearRegressions:
