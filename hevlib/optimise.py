@@ -297,9 +297,12 @@ def _operators(problem: Problem, settings: AlgoParams) -> dict:
                 repair=_integer_repair(problem))
 
 
-def run(problem: Problem, algorithm, n_gen: int, seed: int):
-    """The one call of :func:`pymoo.optimize.minimize`: ``n_gen`` generations, seeded, quiet."""
-    return minimize(problem, algorithm, ("n_gen", int(n_gen)), seed=int(seed), verbose=False)
+def run(problem: Problem, algorithm, n_gen: int, seed: int,
+        progress: Callable[[int, int], None] | None = None):
+    """The one call of :func:`pymoo.optimize.minimize`: ``n_gen`` generations, seeded, quiet;
+    ``progress(generation, n_gen)`` after each generation (a progress bar at a terminal)."""
+    extra = {} if progress is None else {"callback": lambda algorithm: progress(int(algorithm.n_gen), int(n_gen))}
+    return minimize(problem, algorithm, ("n_gen", int(n_gen)), seed=int(seed), verbose=False, **extra)
 
 
 @dataclass(frozen=True)
@@ -344,7 +347,7 @@ def _front(problem: Problem, X: np.ndarray, *, algo: str, n_evaluations: int, t0
 
 
 # ------------------------------------------------------------------------------------- algorithms
-def nsga3(problem: Problem, settings: AlgoParams) -> Front:
+def nsga3(problem: Problem, settings: AlgoParams, progress=None) -> Front:
     """NSGA-III with two-layer Das-Dennis reference directions (``settings.ref_dirs_partitions``).
 
     Why Das-Dennis layers and not Riesz energy: with 11 objectives one Das-Dennis layer places no
@@ -360,12 +363,12 @@ def nsga3(problem: Problem, settings: AlgoParams) -> Front:
     ref = reference_directions(problem.n_obj, partitions=list(settings.ref_dirs_partitions))
     pop_size = max(settings.pop_size, len(ref))
     algorithm = NSGA3(ref, pop_size=pop_size, eliminate_duplicates=True, **_operators(problem, settings))
-    res = run(problem, algorithm, settings.n_gen, settings.seed)
+    res = run(problem, algorithm, settings.n_gen, settings.seed, progress)
     return _front(problem, res.pop.get("X"), algo="nsga3", n_evaluations=res.algorithm.evaluator.n_eval,
                   t0=t0, settings={"pop_size": pop_size, "n_ref_dirs": len(ref), "ref_dirs": "das-dennis layers"})
 
 
-def moead(problem: Problem, settings: AlgoParams) -> Front:
+def moead(problem: Problem, settings: AlgoParams, progress=None) -> Front:
     """MOEA/D (pymoo's batched ``ParallelMOEAD``) on normalised objectives with a mass penalty.
 
     - One subproblem per individual: ``pop_size`` Riesz s-energy directions (seeded), so the
@@ -390,7 +393,8 @@ def moead(problem: Problem, settings: AlgoParams) -> Front:
     decomposition = PBI() if settings.decomposition == "pbi" else Tchebicheff()
     algorithm = ParallelMOEAD(ref, n_neighbors=settings.n_neighbors, decomposition=decomposition,
                               **_operators(problem, settings))
-    res = run(_Reformulated(problem, norm, penalty=settings.penalty), algorithm, settings.n_gen, settings.seed)
+    res = run(_Reformulated(problem, norm, penalty=settings.penalty), algorithm, settings.n_gen, settings.seed,
+              progress)
     return _front(problem, res.pop.get("X"), algo="moead",
                   n_evaluations=res.algorithm.evaluator.n_eval + settings.norm_samples, t0=t0,
                   settings={"pop_size": len(ref), "n_ref_dirs": len(ref), "ref_dirs": "riesz energy",
@@ -437,7 +441,7 @@ def _by_score(pop, P, **kwargs):
     return np.where(score[P[:, 0]] <= score[P[:, 1]], P[:, 0], P[:, 1])
 
 
-def moga(problem: Problem, settings: AlgoParams) -> Front:
+def moga(problem: Problem, settings: AlgoParams, progress=None) -> Front:
     """Weighted-sum GA over ``n_weights`` weight vectors in one population -> a front.
 
     - Objectives normalised by :func:`estimate_normalisation` (``norm_samples`` seeded designs through
@@ -466,7 +470,7 @@ def moga(problem: Problem, settings: AlgoParams) -> Front:
     algorithm = GeneticAlgorithm(pop_size=settings.pop_size, selection=TournamentSelection(func_comp=_by_score),
                                  survival=_WeightedSumSurvival(weights), eliminate_duplicates=True,
                                  advance_after_initial_infill=True, **_operators(problem, settings))
-    res = run(_Reformulated(problem, norm), algorithm, settings.n_gen, settings.seed)
+    res = run(_Reformulated(problem, norm), algorithm, settings.n_gen, settings.seed, progress)
     pop = res.pop
     R = weighted_sum_ranks(pop.get("F"), pop.get("CV")[:, 0], weights)
     best = pop.get("X")[np.argmin(R, axis=0)]
@@ -475,7 +479,7 @@ def moga(problem: Problem, settings: AlgoParams) -> Front:
                                    "weights": "riesz energy", "normalisation": norm.to_dict()})
 
 
-_WRAPPERS: dict[str, Callable[[Problem, AlgoParams], Front]] = {"nsga3": nsga3, "moead": moead, "moga": moga}
+_WRAPPERS: dict[str, Callable[..., Front]] = {"nsga3": nsga3, "moead": moead, "moga": moga}
 
 
 @contextmanager
@@ -495,12 +499,14 @@ def _torch_single_thread():
         torch.set_num_threads(before)
 
 
-def optimise(problem: Problem, algo: str, settings: AlgoParams) -> Front:
-    """Run algorithm ``algo`` (one of :data:`ALGORITHMS`) on ``problem`` with ``settings``."""
+def optimise(problem: Problem, algo: str, settings: AlgoParams,
+             progress: Callable[[int, int], None] | None = None) -> Front:
+    """Run algorithm ``algo`` (one of :data:`ALGORITHMS`) on ``problem`` with ``settings``;
+    ``progress(generation, n_gen)`` after each generation."""
     if algo not in _WRAPPERS:
         raise ValueError(f"optimise: unknown algorithm {algo!r} (use one of {', '.join(ALGORITHMS)})")
     with _torch_single_thread():
-        return _WRAPPERS[algo](problem, settings)
+        return _WRAPPERS[algo](problem, settings, progress)
 
 
 # ------------------------------------------------------------------------- re-simulation, report
@@ -659,9 +665,10 @@ class StudyResult:
 
 
 def optimise_and_resimulate(problem: HevProblem, algo: str, settings: AlgoParams,
-                            simulate: Callable[[np.ndarray], pd.DataFrame], hv: HvSettings) -> StudyResult:
+                            simulate: Callable[[np.ndarray], pd.DataFrame], hv: HvSettings,
+                            progress: Callable[[int, int], None] | None = None) -> StudyResult:
     """The optimise stage's work: front on the surrogate, every design re-simulated, table and report."""
-    front = optimise(problem, algo, settings)
+    front = optimise(problem, algo, settings, progress)
     t0 = time.perf_counter()
     sim = resimulate(front.X, simulate) if len(front) else pd.DataFrame({c: [] for c in RESPONSES})
     resim_s = time.perf_counter() - t0

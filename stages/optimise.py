@@ -12,7 +12,7 @@ from hevlib.optimise import ALGORITHMS, HevProblem, HvSettings, doe_normalisatio
 from hevlib.plots import save_figure
 from hevlib.plots.fronts import front_figure
 from stages.cli import app
-from stages.common import PARAMS_OPTION, params_from, sizing_setup, stage
+from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_setup, stage
 from stages.doe import DOE
 from stages.surrogates import HELDOUT
 
@@ -50,8 +50,10 @@ def optimise_stage(algo: str = typer.Argument(..., help=f"one of {', '.join(ALGO
                          speed_dev_max=rules.speed_dev_max if rules else None,
                          gen_below_motor=bool(rules and rules.gen_below_motor),
                          buildable_gear_set=bool(rules and rules.buildable_gear_set))
-    result = optimise_and_resimulate(
-        problem, algo, settings, lambda X: sim.run(X, cycle, vehicle="hybrid", batch_size=cfg.doe.batch_size), hv)
+    with progress_callback(f"optimise {algo}: {settings.n_gen} generations of {settings.pop_size}") as cb:
+        result = optimise_and_resimulate(
+            problem, algo, settings, lambda X: sim.run(X, cycle, vehicle="hybrid", batch_size=cfg.doe.batch_size), hv,
+            progress=cb)
     fig = front_figure(result.table, hv.norm, title=f"{algo} on {settings.surrogate}: front re-simulated on "
                                                      f"{cycle.name}")
 

@@ -357,3 +357,11 @@ def test_no_feasible_design_gives_an_empty_front_and_report():
     result = optimise_and_resimulate(hev_problem(900.0), "nsga3", SMALL["nsga3"], stand_in_simulate, _hv_settings())
     assert len(result.table) == 0 and result.report["front_size"] == 0
     assert result.report["n_infeasible_dropped"] > 0 and result.report["hypervolume"] == 0.0
+
+
+@pytest.mark.parametrize("algo", ["nsga3", "moead", "moga"])
+def test_progress_is_reported_once_per_generation(algo):
+    seen = []
+    optimise(hev_problem(), algo, SMALL[algo], progress=lambda done, total: seen.append((done, total)))
+    n = SMALL[algo].n_gen
+    assert seen == [(g, n) for g in range(1, n + 1)]
