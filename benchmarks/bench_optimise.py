@@ -56,7 +56,7 @@ class LinearStandIn:
     def predict(self, X):
         X = self.space.check(X, what="surrogate input", integers=False)
         z = (X - self.mid) / self.half
-        return _LOC + _SCALE * (np.hstack([np.ones((len(z), 1)), z, z ** 2]) @ self.B)
+        return _LOC + _SCALE * (np.hstack([np.ones((len(z), 1)), z, z**2]) @ self.B)
 
 
 def _mass_function(params):
@@ -85,9 +85,11 @@ def main() -> None:
         front = optimise(HevProblem(surrogate, space, mass_kg, m_max), algo, s)
         total += front.runtime_s
         whole = bool(np.all(front.X[:, INTEGER_MASK] == np.round(front.X[:, INTEGER_MASK])))
-        print(f"{algo:6s} surrogate={s.surrogate:10s} pop={s.pop_size} n_gen={s.n_gen} "
-              f"runtime_s={front.runtime_s:7.1f} n_evaluations={front.n_evaluations:9d} "
-              f"front={len(front):4d} infeasible_dropped={front.n_infeasible} integers_whole={whole}")
+        print(
+            f"{algo:6s} surrogate={s.surrogate:10s} pop={s.pop_size} n_gen={s.n_gen} "
+            f"runtime_s={front.runtime_s:7.1f} n_evaluations={front.n_evaluations:9d} "
+            f"front={len(front):4d} infeasible_dropped={front.n_infeasible} integers_whole={whole}"
+        )
     print(f"total optimiser time {total:.1f} s (bar: 600 s for the three stages incl. re-simulation)")
 
 

@@ -36,15 +36,19 @@ def _one(n: int, repeat: int) -> dict:
     from hevlib.simulate import Simulator
 
     params = load_params(ROOT / "params.yaml")
-    params = params.model_copy(update={
-        "cycles": params.cycles.model_copy(update={"raw_dir": str(ROOT / params.cycles.raw_dir)}),
-        "baseline": params.baseline.model_copy(update={"components_dir": str(ROOT / params.baseline.components_dir)}),
-    })
+    params = params.model_copy(
+        update={
+            "cycles": params.cycles.model_copy(update={"raw_dir": str(ROOT / params.cycles.raw_dir)}),
+            "baseline": params.baseline.model_copy(
+                update={"components_dir": str(ROOT / params.baseline.components_dir)}
+            ),
+        }
+    )
     sim = Simulator(study_library(params.baseline, ROOT / "data" / "raw" / "paper"), params)
     udds = build_cycles(params.cycles)["udds"]
     X = lhs_designs(params.design_space.space(), max(n, 2), seed=2026)[:n]
     t0 = time.perf_counter()
-    sim.run(X[:1], udds)                                    # compile (or load the numba cache)
+    sim.run(X[:1], udds)  # compile (or load the numba cache)
     warmup_s = time.perf_counter() - t0
     out = {"n_designs": n, "threads": numba.get_num_threads(), "warmup_s": warmup_s}
     for label, cyc in (("udds_grade20", udds), ("udds_flat", udds.with_grade(0.0))):
@@ -56,8 +60,12 @@ def _one(n: int, repeat: int) -> dict:
             t0 = time.perf_counter()
             sim.run(X, cyc, batch_size=n)
             full.append(time.perf_counter() - t0)
-        out[label] = {"drive_s": min(drive), "full_s": min(full), "drive_design_cycles_per_s": n / min(drive),
-                      "full_design_cycles_per_s": n / min(full)}
+        out[label] = {
+            "drive_s": min(drive),
+            "full_s": min(full),
+            "drive_design_cycles_per_s": n / min(drive),
+            "full_design_cycles_per_s": n / min(full),
+        }
     tracemalloc.start()
     sim.run(X, udds, batch_size=n)
     out["peak_traced_alloc_mib"] = tracemalloc.get_traced_memory()[1] / 2**20
@@ -80,23 +88,38 @@ def main() -> None:
         return
     rows = []
     for n in args.sizes:
-        res = subprocess.run([sys.executable, __file__, "--one", str(n), "--repeat", str(args.repeat)],
-                             capture_output=True, text=True, check=True, cwd=ROOT)
+        res = subprocess.run(
+            [sys.executable, __file__, "--one", str(n), "--repeat", str(args.repeat)],
+            capture_output=True,
+            text=True,
+            check=True,
+            cwd=ROOT,
+        )
         rows.append(json.loads(res.stdout.strip().splitlines()[-1]))
-    head = f"{'designs':>8} {'UDDS 20%: drive dc/s':>21} {'full dc/s':>10} {'flat: drive dc/s':>17} " \
-           f"{'full dc/s':>10} {'peak RSS MiB':>13} {'traced MiB':>11}"
+    head = (
+        f"{'designs':>8} {'UDDS 20%: drive dc/s':>21} {'full dc/s':>10} {'flat: drive dc/s':>17} "
+        f"{'full dc/s':>10} {'peak RSS MiB':>13} {'traced MiB':>11}"
+    )
     print(head)
     for r in rows:
         g, f = r["udds_grade20"], r["udds_flat"]
-        print(f"{r['n_designs']:>8} {g['drive_design_cycles_per_s']:>21.0f} {g['full_design_cycles_per_s']:>10.0f} "
-              f"{f['drive_design_cycles_per_s']:>17.0f} {f['full_design_cycles_per_s']:>10.0f} "
-              f"{r['peak_rss_mib']:>13.0f} {r['peak_traced_alloc_mib']:>11.1f}")
+        print(
+            f"{r['n_designs']:>8} {g['drive_design_cycles_per_s']:>21.0f} {g['full_design_cycles_per_s']:>10.0f} "
+            f"{f['drive_design_cycles_per_s']:>17.0f} {f['full_design_cycles_per_s']:>10.0f} "
+            f"{r['peak_rss_mib']:>13.0f} {r['peak_traced_alloc_mib']:>11.1f}"
+        )
     single = next((r for r in rows if r["n_designs"] == 1), None)
     if single:
         print(f"one design, full response on UDDS 20 %: {single['udds_grade20']['full_s'] * 1e3:.1f} ms")
-    report = {"machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
-                          "processor": platform.processor() or platform.machine()},
-              "cycle": "udds (1370 steps of 1 s)", "results": rows}
+    report = {
+        "machine": {
+            "cpus": os.cpu_count(),
+            "python": platform.python_version(),
+            "processor": platform.processor() or platform.machine(),
+        },
+        "cycle": "udds (1370 steps of 1 s)",
+        "results": rows,
+    }
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(report, indent=2) + "\n")
 

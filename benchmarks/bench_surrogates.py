@@ -25,13 +25,19 @@ from hevlib.surrogates.metrics import r2_score
 from hevlib.surrogates.regression import LinearRegressions
 
 
-def synthetic_targets(X: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-                      positive: tuple[str, ...] = ()) -> np.ndarray:
+def synthetic_targets(
+    X: np.ndarray, lower: np.ndarray, upper: np.ndarray, positive: tuple[str, ...] = ()
+) -> np.ndarray:
     """Eleven smooth nonlinear functions of the scaled designs (an objective-like workload); the objectives
     in ``positive`` are ``20 exp(2 f)``: positive and heavy-tailed, like the per-km figures."""
     u = (X - lower) / (upper - lower)
-    Y = np.stack([np.tanh(u @ np.sin(np.arange(7) * (k + 1))) + 0.5 * np.sin(3 * u[:, k % 7]) * u[:, (k + 2) % 7]
-                  for k in range(11)], axis=1)
+    Y = np.stack(
+        [
+            np.tanh(u @ np.sin(np.arange(7) * (k + 1))) + 0.5 * np.sin(3 * u[:, k % 7]) * u[:, (k + 2) % 7]
+            for k in range(11)
+        ],
+        axis=1,
+    )
     for name in positive:
         k = OBJECTIVES.index(name)
         Y[:, k] = 20.0 * np.exp(2.0 * Y[:, k])
@@ -67,8 +73,12 @@ def main() -> None:
     reg = LinearRegressions(space).fit(X, Y)
     t_reg = time.perf_counter() - t0
     rows = [
-        (f"BNN train ({args.n_train} designs, {bnn.epochs_} epochs, hidden {list(p.hidden)}, "
-         f"log {','.join(p.log_targets) or 'none'})", t_train, 120.0),
+        (
+            f"BNN train ({args.n_train} designs, {bnn.epochs_} epochs, hidden {list(p.hidden)}, "
+            f"log {','.join(p.log_targets) or 'none'})",
+            t_train,
+            120.0,
+        ),
         (f"BNN predict {args.n_predict} (mean)", best_of(lambda: bnn.predict(Xp)), 1.0),
         (f"BNN predict {args.n_predict} (mean + std)", best_of(lambda: bnn.predict(Xp, return_std=True)), None),
         (f"regression fit ({args.n_train} designs)", t_reg, None),
@@ -79,10 +89,11 @@ def main() -> None:
     for name, sec, bar in rows:
         verdict = "" if bar is None else (f"< {bar:g} s ok" if sec < bar else f"< {bar:g} s FAILED")
         print(f"{name:<{width}}  {sec:9.3f}  {verdict}")
-    r2 = r2_score(synthetic_targets(Xp[:2000], space.lower, space.upper, tuple(p.log_targets)),
-                  bnn.predict(Xp[:2000]))
-    print(f"BNN: alpha={bnn.alpha_:.3g} beta={bnn.beta_:.3g} gamma={bnn.gamma_:.1f} of {bnn.n_weights_} weights; "
-          f"R^2 on 2000 fresh designs min {r2.min():.4f}, mean {r2.mean():.4f}")
+    r2 = r2_score(synthetic_targets(Xp[:2000], space.lower, space.upper, tuple(p.log_targets)), bnn.predict(Xp[:2000]))
+    print(
+        f"BNN: alpha={bnn.alpha_:.3g} beta={bnn.beta_:.3g} gamma={bnn.gamma_:.1f} of {bnn.n_weights_} weights; "
+        f"R^2 on 2000 fresh designs min {r2.min():.4f}, mean {r2.mean():.4f}"
+    )
 
 
 if __name__ == "__main__":

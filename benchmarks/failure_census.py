@@ -36,15 +36,19 @@ def census(sim: Simulator, cycle: Cycle, n: int, seed: int) -> dict:
     moving = r["speed_dev"].to_numpy() > 0
     ratio = r["e_l"].to_numpy()[moving] / r["speed_dev"].to_numpy()[moving]
     return {
-        "n_designs": n, "wall_s": round(wall, 2),
+        "n_designs": n,
+        "wall_s": round(wall, 2),
         "n_nan": int(r.isna().sum().sum()),
         "n_never_moved": int(never_moved.sum()),
         "n_never_moved_flagged_stalled": int(r.loc[never_moved, "stalled"].sum()),
         "n_stalled": int(r["stalled"].sum()),
         "n_accessory_unmet": int((r["accessory_unmet_kwh"] > 1e-9).sum()),
         "n_cycle_met": int(r["cycle_met"].sum()),
-        "e_l_over_speed_dev": {"min": float(ratio.min()), "max": float(ratio.max()),
-                               "cv": float(ratio.std() / ratio.mean())},
+        "e_l_over_speed_dev": {
+            "min": float(ratio.min()),
+            "max": float(ratio.max()),
+            "cv": float(ratio.std() / ratio.mean()),
+        },
         "corr_e_l_speed_dev": float(np.corrcoef(r["e_l"], r["speed_dev"])[0, 1]),
     }
 
@@ -58,11 +62,17 @@ def study_comparison(sim: Simulator, cycle: Cycle, l27_file: str, equations: str
         c = eq.loc[k]
         study = c["intercept"] + X @ c[list(DESIGN_VARS)].to_numpy(float)
         ours = r[k].to_numpy(float)
-        rows.append({"response": k, "study_median": np.median(study), "ours_median": np.median(ours),
-                     "study_range": f"{study.min():.3g}..{study.max():.3g}",
-                     "ours_range": f"{ours.min():.3g}..{ours.max():.3g}",
-                     "ratio_of_medians": np.median(ours) / np.median(study),
-                     "corr": np.corrcoef(study, ours)[0, 1]})
+        rows.append(
+            {
+                "response": k,
+                "study_median": np.median(study),
+                "ours_median": np.median(ours),
+                "study_range": f"{study.min():.3g}..{study.max():.3g}",
+                "ours_range": f"{ours.min():.3g}..{ours.max():.3g}",
+                "ratio_of_medians": np.median(ours) / np.median(study),
+                "corr": np.corrcoef(study, ours)[0, 1],
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -75,13 +85,16 @@ def main() -> None:
     p = load_params(a.params)
     sim = Simulator.from_params(p)
     cycle = Cycle.from_parquet(f"data/cycles/{p.cycles.sizing}.parquet")
-    sim.run(np.array([[43.0, 31.0, 15.0, 3.93, 25, 78, 30]]), cycle)         # compile outside the timing
+    sim.run(np.array([[43.0, 31.0, 15.0, 3.93, 25, 78, 30]]), cycle)  # compile outside the timing
     print(f"census of {a.n} Latin-hypercube designs on {cycle.name} (grade {100 * cycle.grade[0]:g} %):")
     for k, v in census(sim, cycle, a.n, a.seed).items():
         print(f"  {k}: {v}")
     print("\nL27 designs: our objectives against the study's regression equations at the same points")
-    print(study_comparison(sim, cycle, p.doe.l27_file, "data/raw/paper/regression_equations.csv")
-          .round(3).to_string(index=False))
+    print(
+        study_comparison(sim, cycle, p.doe.l27_file, "data/raw/paper/regression_equations.csv")
+        .round(3)
+        .to_string(index=False)
+    )
 
 
 if __name__ == "__main__":

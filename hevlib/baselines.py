@@ -42,6 +42,12 @@ def simulate_baselines(sim: Simulator, cycles: Mapping[str, Cycle]) -> tuple[dic
             resp = sim.responses(raw, cyc).iloc[0]
             report[vehicle][run] = {k: (bool(resp[k]) if k in BOOL_RESPONSES else float(resp[k])) for k in RESPONSES}
             eb = energy_balance(raw).iloc[0]
-            balance.append({"vehicle": vehicle, "run": run, **eb.to_dict(),
-                            "limit_violations": float(raw.frame()["limit_violations"].iloc[0])})
+            balance.append(
+                {
+                    "vehicle": vehicle,
+                    "run": run,
+                    **eb.to_dict(),
+                    "limit_violations": float(raw.frame()["limit_violations"].iloc[0]),
+                }
+            )
     return report, pd.DataFrame(balance)

@@ -47,14 +47,16 @@ def _ro(a) -> np.ndarray:
 
 #: Keys whose name carries a unit (or is a coefficient, efficiency, ratio or share) hold numbers: a number,
 #: or (nested) lists of numbers; null stands for a value the source leaves undefined.
-_NUMERIC_KEY = re.compile(r"_(kw|w|nm|kg|rad_s|rpm|v|a|ohm|ah|m|m2|kg_m2|s|c|g_per_s|g_per_kwh|kmh|km_per_h|mph|"
-                          r"m_per_s|coefficient|efficiency|ratio|g_per_l|j_per_g|pct|n|j|w_per_k|kg_per_kw|fraction)$")
+_NUMERIC_KEY = re.compile(
+    r"_(kw|w|nm|kg|rad_s|rpm|v|a|ohm|ah|m|m2|kg_m2|s|c|g_per_s|g_per_kwh|kmh|km_per_h|mph|"
+    r"m_per_s|coefficient|efficiency|ratio|g_per_l|j_per_g|pct|n|j|w_per_k|kg_per_kw|fraction)$"
+)
 #: Unit-named keys the ADVISOR extract fills with words on purpose (the source leaves the value undefined).
 _TEXT_ALLOWED = frozenset({"planetary_efficiency"})
 
 
 def _numbers_only(value) -> bool:
-    if value is None:                                   # undefined in the source (e.g. no voltage limit)
+    if value is None:  # undefined in the source (e.g. no voltage limit)
         return True
     if isinstance(value, bool):
         return False
@@ -93,14 +95,14 @@ class EngineMap:
     name: str
     speed_rad_s: np.ndarray
     torque_nm: np.ndarray
-    max_torque_nm: np.ndarray           # full load, indexed by speed_rad_s
-    fuel_g_s: np.ndarray                # (n_speed, n_torque)
+    max_torque_nm: np.ndarray  # full load, indexed by speed_rad_s
+    fuel_g_s: np.ndarray  # (n_speed, n_torque)
     hc_g_s: np.ndarray
     co_g_s: np.ndarray
     nox_g_s: np.ndarray
-    peak_power_kw: float                # max of max_torque x speed (torque curve linear between axis points)
-    engine_mass_kg: float               # base engine + accessories (scales with power)
-    fuel_system_mass_kg: float          # does not scale (ADVISOR rule)
+    peak_power_kw: float  # max of max_torque x speed (torque curve linear between axis points)
+    engine_mass_kg: float  # base engine + accessories (scales with power)
+    fuel_system_mass_kg: float  # does not scale (ADVISOR rule)
     inertia_kg_m2: float
     lhv_j_per_g: float
     fuel_density_g_per_l: float
@@ -161,10 +163,10 @@ class MachineMap:
     """Electric machine with inverter: efficiency vs |speed| and |torque| (first quadrant, mirrored)."""
 
     name: str
-    speed_rad_s: np.ndarray             # >= 0
-    torque_nm: np.ndarray               # >= 0
-    efficiency: np.ndarray              # (n_speed, n_torque); motoring P_e = P_m/eff, generating P_m*eff
-    max_torque_nm: np.ndarray           # magnitude limit vs speed_rad_s
+    speed_rad_s: np.ndarray  # >= 0
+    torque_nm: np.ndarray  # >= 0
+    efficiency: np.ndarray  # (n_speed, n_torque); motoring P_e = P_m/eff, generating P_m*eff
+    max_torque_nm: np.ndarray  # magnitude limit vs speed_rad_s
     peak_power_kw: float
     mass_kg: float
     inertia_kg_m2: float
@@ -187,8 +189,7 @@ class MachineMap:
 
     def efficiency_at(self, speed_rad_s, torque_nm) -> np.ndarray:
         """Efficiency at ``(|speed|, |torque|)`` (bilinear, clamped)."""
-        return interp_map(self.speed_rad_s, self.torque_nm, self.efficiency, np.abs(speed_rad_s),
-                          np.abs(torque_nm))
+        return interp_map(self.speed_rad_s, self.torque_nm, self.efficiency, np.abs(speed_rad_s), np.abs(torque_nm))
 
 
 @dataclass(frozen=True)
@@ -235,11 +236,11 @@ class Wheel:
     name: str
     radius_m: float
     rolling_resistance: float
-    inertia_kg_m2: float                # all wheels, tyres and axles together
+    inertia_kg_m2: float  # all wheels, tyres and axles together
     axle_drag_nm_at_0kg: float
     axle_drag_nm_per_kg: float
-    brake_speed_mps: np.ndarray         # vehicle speed axis of the braking split (>= 0, increasing)
-    brake_driveline_share: np.ndarray   # share of the braking demand the driveline may take (regeneration)
+    brake_speed_mps: np.ndarray  # vehicle speed axis of the braking split (>= 0, increasing)
+    brake_driveline_share: np.ndarray  # share of the braking demand the driveline may take (regeneration)
 
     def driveline_brake_share(self, speed_mps) -> np.ndarray:
         """Share of a braking request the driveline may take at ``speed_mps`` (linear, clamped)."""
@@ -258,7 +259,7 @@ class PowerSplit:
     engine_max_speed_rad_s: float
     motor_max_speed_rad_s: float
     generator_max_speed_rad_s: float
-    engine_min_on_speed_rad_s: float    # lowest running speed: the engine map's lowest speed (FC_PRIUS_JPN: 1000 rpm)
+    engine_min_on_speed_rad_s: float  # lowest running speed: the engine map's lowest speed (FC_PRIUS_JPN: 1000 rpm)
     operating_line_power_w: np.ndarray  # ADVISOR's 5-point Prius operating line (for comparison)
     operating_line_speed_rad_s: np.ndarray
 
@@ -269,8 +270,8 @@ class Gearbox:
 
     name: str
     ratios: np.ndarray
-    mass_kg: float                      # gearbox + final drive (TX_5SPD_SI transmission mass)
-    loss_coefficients: np.ndarray       # a, b, c, d, e, f of P_loss = (a r + b) w + (c/r + d)|T| + e P + f
+    mass_kg: float  # gearbox + final drive (TX_5SPD_SI transmission mass)
+    loss_coefficients: np.ndarray  # a, b, c, d, e, f of P_loss = (a r + b) w + (c/r + d)|T| + e P + f
 
 
 @dataclass(frozen=True)
@@ -295,12 +296,12 @@ def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
 class ComponentLibrary:
     """Everything the simulator needs, before sizing."""
 
-    engine_hybrid: EngineMap            # FC_PRIUS_JPN, scaled per design
-    engine_conventional: EngineMap      # FC_SI63_emis, scaled to the conventional car's power
+    engine_hybrid: EngineMap  # FC_PRIUS_JPN, scaled per design
+    engine_conventional: EngineMap  # FC_SI63_emis, scaled to the conventional car's power
     motor: MachineMap
     generator: MachineMap
     battery: BatteryModule
-    body_conventional: Body             # the study's conventional car (Table 1) = every design's chassis
+    body_conventional: Body  # the study's conventional car (Table 1) = every design's chassis
     wheel_conventional: Wheel
     body_prius: Body
     wheel_prius: Wheel
@@ -333,7 +334,7 @@ class ComponentLibrary:
                 written.append(path)
             else:
                 index[f.name] = value
-        write_json(out_dir / "library.json", index, digits=None)         # exact: the simulator reads it
+        write_json(out_dir / "library.json", index, digits=None)  # exact: the simulator reads it
         for stale in set(out_dir.glob("*.npz")) - set(written):
             stale.unlink()
         return [*written, out_dir / "library.json"]
@@ -369,8 +370,9 @@ class ComponentLibrary:
 
 
 # --------------------------------------------------------------------------- best-efficiency line
-def best_efficiency_line(engine: EngineMap, *, n_power: int = 61, n_speed: int = 361,
-                         load_limit: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def best_efficiency_line(
+    engine: EngineMap, *, n_power: int = 61, n_speed: int = 361, load_limit: float = 1.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The engine's minimum-fuel operating line: for each power, the speed and torque that burn least fuel.
 
     Returns ``(power_w, speed_rad_s, torque_nm)``, ``n_power`` points from 0 to the peak power
@@ -391,7 +393,7 @@ def best_efficiency_line(engine: EngineMap, *, n_power: int = 61, n_speed: int =
 
     w = np.linspace(engine.speed_rad_s[0], engine.speed_rad_s[-1], n_speed)
     power_w = np.linspace(0.0, float(np.max(w * t_lim(w))), n_power)
-    torque = power_w[:, None] / w[None, :]                               # (n_power, n_speed)
+    torque = power_w[:, None] / w[None, :]  # (n_power, n_speed)
     fuel = engine.rate_g_s("fuel", np.broadcast_to(w, torque.shape), torque)
     fuel = np.where(torque <= t_lim(w)[None, :] * (1 + 1e-12), fuel, np.inf)
     best = np.argmin(fuel, axis=1)
@@ -405,7 +407,7 @@ def best_efficiency_line(engine: EngineMap, *, n_power: int = 61, n_speed: int =
         mid = 0.5 * (lo + hi)
         same_as_lo = (mid * t_lim(mid) - p_k >= 0) == lo_ok
         lo, hi = np.where(same_as_lo, mid, lo), np.where(same_as_lo, hi, mid)
-    w_b = np.where(lo_ok, lo, hi)                                         # the feasible end
+    w_b = np.where(lo_ok, lo, hi)  # the feasible end
     f_b = engine.rate_g_s("fuel", w_b, p_k / w_b)
     for kk, wb, fb in zip(k, w_b, f_b, strict=True):
         if fb < best_fuel[kk]:
@@ -424,23 +426,21 @@ def _peak_power_kw(speed: np.ndarray, torque: np.ndarray) -> float:
     return float(np.max(s * np.interp(s, speed, torque)) / 1e3)
 
 
-def _cover_full_load(torque: np.ndarray, max_torque: np.ndarray,
-                     maps: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray], list[str]]:
+def _cover_full_load(
+    torque: np.ndarray, max_torque: np.ndarray, maps: dict[str, np.ndarray]
+) -> tuple[np.ndarray, dict[str, np.ndarray], list[str]]:
     """Extend the torque axis linearly to 0 N*m and to the full-load peak (clipped at >= 0)."""
     notes = []
     if torque[0] > 0:
         f = torque[0] / (torque[1] - torque[0])
-        maps = {k: np.hstack([np.maximum(m[:, :1] - f * (m[:, 1:2] - m[:, :1]), 0.0), m])
-                for k, m in maps.items()}
+        maps = {k: np.hstack([np.maximum(m[:, :1] - f * (m[:, 1:2] - m[:, :1]), 0.0), m]) for k, m in maps.items()}
         torque = np.concatenate([[0.0], torque])
         notes.append(f"torque axis extended linearly from {torque[1]:.4g} down to 0 N*m")
     t_top = float(np.max(max_torque))
     if t_top > torque[-1] * (1 + 1e-9):
         f = (t_top - torque[-1]) / (torque[-1] - torque[-2])
-        maps = {k: np.hstack([m, np.maximum(m[:, -1:] + f * (m[:, -1:] - m[:, -2:-1]), 0.0)])
-                for k, m in maps.items()}
-        notes.append(f"torque axis extended linearly from {torque[-1]:.4g} up to the full-load peak "
-                     f"{t_top:.4g} N*m")
+        maps = {k: np.hstack([m, np.maximum(m[:, -1:] + f * (m[:, -1:] - m[:, -2:-1]), 0.0)]) for k, m in maps.items()}
+        notes.append(f"torque axis extended linearly from {torque[-1]:.4g} up to the full-load peak {t_top:.4g} N*m")
         torque = np.concatenate([torque, [t_top]])
     return torque, maps, notes
 
@@ -463,7 +463,10 @@ def load_engine(path: Path, notes: list[str] | None = None) -> EngineMap:
         speed_rad_s=speed,
         torque_nm=_ro(torque),
         max_torque_nm=tmax,
-        fuel_g_s=_ro(maps["fuel"]), hc_g_s=_ro(maps["hc"]), co_g_s=_ro(maps["co"]), nox_g_s=_ro(maps["nox"]),
+        fuel_g_s=_ro(maps["fuel"]),
+        hc_g_s=_ro(maps["hc"]),
+        co_g_s=_ro(maps["co"]),
+        nox_g_s=_ro(maps["nox"]),
         peak_power_kw=_peak_power_kw(speed, tmax),
         engine_mass_kg=float(mass["base_engine_mass_kg"] + mass["accessories_mass_kg"]),
         fuel_system_mass_kg=float(mass["fuel_system_mass_kg"]),
@@ -501,7 +504,10 @@ def load_machine(path: Path, *, generator: bool, notes: list[str] | None = None)
         notes.extend(f"{name}: {n} (source fill replaced)" for n in changed)
     return MachineMap(
         name=name,
-        speed_rad_s=_ro(speed), torque_nm=_ro(torque), efficiency=_ro(eff), max_torque_nm=_ro(tmax),
+        speed_rad_s=_ro(speed),
+        torque_nm=_ro(torque),
+        efficiency=_ro(eff),
+        max_torque_nm=_ro(tmax),
         peak_power_kw=_peak_power_kw(speed, tmax),
         mass_kg=float(_need(d, "mass_kg", path)),
         inertia_kg_m2=float(d.get("inertia_kg_m2", DEFAULT_MACHINE_INERTIA_KG_M2)),
@@ -519,12 +525,16 @@ def load_battery(path: Path, temperature_c: float) -> BatteryModule:
 
     return BatteryModule(
         name=str(d.get("source", path.stem)).split()[-1],
-        soc=_ro(_need(d, "soc_axis", path)), ocv_v=row("open_circuit_voltage_v"),
-        r_dis_ohm=row("discharge_resistance_ohm"), r_chg_ohm=row("charge_resistance_ohm"),
+        soc=_ro(_need(d, "soc_axis", path)),
+        ocv_v=row("open_circuit_voltage_v"),
+        r_dis_ohm=row("discharge_resistance_ohm"),
+        r_chg_ohm=row("charge_resistance_ohm"),
         capacity_ah=float(np.array(_need(d, "capacity_ah", path))[i]),
         coulombic_efficiency=float(np.array(_need(d, "coulombic_efficiency", path))[i]),
-        v_min=float(_need(d, "min_voltage_v", path)), v_max=float(_need(d, "max_voltage_v", path)),
-        mass_kg=float(_need(d, "module_mass_kg", path)), temperature_c=float(temps[i]),
+        v_min=float(_need(d, "min_voltage_v", path)),
+        v_max=float(_need(d, "max_voltage_v", path)),
+        mass_kg=float(_need(d, "module_mass_kg", path)),
+        temperature_c=float(temps[i]),
     )
 
 
@@ -551,25 +561,33 @@ def load_wheel(path: Path) -> Wheel:
     braking = _need(d, "braking", path)
     v_kmh = np.array(_need(braking, "vehicle_speed_km_per_h", path), dtype=float)
     share = np.array(_need(braking, "driveline_fraction", path), dtype=float)
-    keep = v_kmh >= 0.0                      # the file's -1 mph point only pads the table
+    keep = v_kmh >= 0.0  # the file's -1 mph point only pads the table
     if v_kmh.shape != share.shape or np.any(np.diff(v_kmh[keep]) <= 0) or np.any((share < 0) | (share > 1)):
         raise ValueError(f"{path}: braking: speed axis must increase and driveline_fraction lie in [0, 1]")
     return Wheel(
-        name=str(d.get("source", path.stem)).split()[-1], radius_m=float(_need(d, "rolling_radius_m", path)),
+        name=str(d.get("source", path.stem)).split()[-1],
+        radius_m=float(_need(d, "rolling_radius_m", path)),
         rolling_resistance=float(_need(d, "rolling_resistance_coefficient", path)),
         inertia_kg_m2=float(d.get("inertia_kg_m2", DEFAULT_WHEEL_INERTIA_KG_M2)),
-        axle_drag_nm_at_0kg=float(t[0]), axle_drag_nm_per_kg=float((t[1] - t[0]) / (m[1] - m[0])),
-        brake_speed_mps=_ro(v_kmh[keep] / 3.6), brake_driveline_share=_ro(share[keep]),
+        axle_drag_nm_at_0kg=float(t[0]),
+        axle_drag_nm_per_kg=float((t[1] - t[0]) / (m[1] - m[0])),
+        brake_speed_mps=_ro(v_kmh[keep] / 3.6),
+        brake_driveline_share=_ro(share[keep]),
     )
 
 
 #: Table 1 of the study (``data/raw/paper/table1_baseline_vehicles.csv``): row name -> (our key, unit).
 TABLE1_ROWS = {
-    "vehicle_mass": ("test_mass_kg", "kg"), "engine_max_power": ("p_eng_kw", "kW"),
-    "motor_max_power": ("p_mot_kw", "kW"), "generator_max_power": ("p_gen_kw", "kW"),
-    "drag_coefficient": ("drag_coefficient", "-"), "frontal_area": ("frontal_area_m2", "m2"),
-    "cg_height": ("cg_height_m", "m"), "wheel_radius": ("wheel_radius_m", "m"),
-    "overall_gear_ratios": ("gear_ratios", "-"), "final_drive_ratio": ("final_drive_ratio", "-"),
+    "vehicle_mass": ("test_mass_kg", "kg"),
+    "engine_max_power": ("p_eng_kw", "kW"),
+    "motor_max_power": ("p_mot_kw", "kW"),
+    "generator_max_power": ("p_gen_kw", "kW"),
+    "drag_coefficient": ("drag_coefficient", "-"),
+    "frontal_area": ("frontal_area_m2", "m2"),
+    "cg_height": ("cg_height_m", "m"),
+    "wheel_radius": ("wheel_radius_m", "m"),
+    "overall_gear_ratios": ("gear_ratios", "-"),
+    "final_drive_ratio": ("final_drive_ratio", "-"),
 }
 
 
@@ -600,8 +618,9 @@ def read_baseline_table(path: str | Path) -> dict[str, dict]:
                 raise ValueError(f"{path}: {r['parameter']} ({car}): {cell!r} is not a number") from None
             out[car][key] = vals if key == "gear_ratios" else vals[0]
     for car in out:
-        missing = [k for k in ("drag_coefficient", "frontal_area_m2", "cg_height_m", "wheel_radius_m")
-                   if k not in out[car]]
+        missing = [
+            k for k in ("drag_coefficient", "frontal_area_m2", "cg_height_m", "wheel_radius_m") if k not in out[car]
+        ]
         if missing:
             raise ValueError(f"{path}: {car}: missing {', '.join(missing)}")
     return out
@@ -616,7 +635,7 @@ def read_paper_row(path: str | Path, column: str, value) -> dict:
     rows = df[df[column] == value]
     if rows.empty:
         raise ValueError(f"{path}: no row with {column} = {value!r}")
-    cells = {k: df[k].at[rows.index[0]] for k in df.columns}          # per column: keeps int columns int
+    cells = {k: df[k].at[rows.index[0]] for k in df.columns}  # per column: keeps int columns int
     return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in cells.items()}
 
 
@@ -637,9 +656,16 @@ def _with_overrides(body: Body, wheel: Wheel, overrides: dict | None) -> tuple[B
     return body, wheel
 
 
-def load_library(raw_dir: str | Path, *, battery: str = "li_ion", battery_temperature_c: float = 41.0,
-                 conventional_body: dict | None = None, gear_ratios: list[float] | None = None,
-                 conventional_idle_rpm: float = 800.0, prius_body: dict | None = None) -> ComponentLibrary:
+def load_library(
+    raw_dir: str | Path,
+    *,
+    battery: str = "li_ion",
+    battery_temperature_c: float = 41.0,
+    conventional_body: dict | None = None,
+    gear_ratios: list[float] | None = None,
+    conventional_idle_rpm: float = 800.0,
+    prius_body: dict | None = None,
+) -> ComponentLibrary:
     """Load every component of the study from ``raw_dir`` (ADVISOR YAML).
 
     ``conventional_body`` / ``prius_body`` override body and wheel numbers with the study's Table 1
@@ -659,10 +685,12 @@ def load_library(raw_dir: str | Path, *, battery: str = "li_ion", battery_temper
     acc_h, acc_c = _read_yaml(raw / "ACC_PRIUS_JPN.yaml"), _read_yaml(raw / "ACC_CONV.yaml")
     doc = _need(tx, "from_advisor_documentation", raw / "TX_PRIUS_CVT_JPN.yaml")
     reg = _need(gb, "loss_regression", raw / "TX_5SPD_SI.yaml")
-    body_c, wheel_c = _with_overrides(load_body(raw / "VEH_EV1.yaml"), load_wheel(raw / "WH_SMCAR.yaml"),
-                                      conventional_body)
-    body_p, wheel_p = _with_overrides(load_body(raw / "VEH_PRIUS_JPN.yaml"),
-                                      load_wheel(raw / "WH_PRIUS_JPN.yaml"), prius_body)
+    body_c, wheel_c = _with_overrides(
+        load_body(raw / "VEH_EV1.yaml"), load_wheel(raw / "WH_SMCAR.yaml"), conventional_body
+    )
+    body_p, wheel_p = _with_overrides(
+        load_body(raw / "VEH_PRIUS_JPN.yaml"), load_wheel(raw / "WH_PRIUS_JPN.yaml"), prius_body
+    )
     battery_files = {"li_ion": "ESS_LI7_temp.yaml", "nimh": "ESS_NIMH6.yaml"}
     if battery not in battery_files:
         raise ValueError(f"battery: {battery!r} is not one of {', '.join(battery_files)}")
@@ -681,11 +709,16 @@ def load_library(raw_dir: str | Path, *, battery: str = "li_ion", battery_temper
         motor=motor,
         generator=generator,
         battery=load_battery(raw / battery_file, battery_temperature_c),
-        body_conventional=body_c, wheel_conventional=wheel_c,
-        body_prius=body_p, wheel_prius=wheel_p,
+        body_conventional=body_c,
+        wheel_conventional=wheel_c,
+        body_prius=body_p,
+        wheel_prius=wheel_p,
         power_split=PowerSplit(
-            n_r=int(tx["ring_gear_teeth"]), n_s=int(tx["sun_gear_teeth"]), i0=float(tx["final_drive_ratio"]),
-            n_planets=int(doc["planet_gear_count"]), planet_teeth=int(doc["planet_gear_teeth"]),
+            n_r=int(tx["ring_gear_teeth"]),
+            n_s=int(tx["sun_gear_teeth"]),
+            i0=float(tx["final_drive_ratio"]),
+            n_planets=int(doc["planet_gear_count"]),
+            planet_teeth=int(doc["planet_gear_teeth"]),
             engine_max_speed_rad_s=float(ptc["engine_max_speed_rad_s"]),
             motor_max_speed_rad_s=float(doc["motor_speed_limit_rpm"]) * RPM,
             generator_max_speed_rad_s=float(ptc["generator_max_speed_rad_s"]),
@@ -697,9 +730,19 @@ def load_library(raw_dir: str | Path, *, battery: str = "li_ion", battery_temper
             operating_line_speed_rad_s=_ro(ptc["engine_operating_line"]["speed_rad_s"]),
         ),
         gearbox=Gearbox(
-            name="TX_5SPD_SI", ratios=_ro(ratios), mass_kg=float(gb["transmission_mass_kg"]),
-            loss_coefficients=_ro([reg["a_input_speed"], reg["b_output_speed"], reg["c_input_torque"],
-                                   reg["d_output_torque"], reg["e_output_power"], reg["f_constant_w"]]),
+            name="TX_5SPD_SI",
+            ratios=_ro(ratios),
+            mass_kg=float(gb["transmission_mass_kg"]),
+            loss_coefficients=_ro(
+                [
+                    reg["a_input_speed"],
+                    reg["b_output_speed"],
+                    reg["c_input_torque"],
+                    reg["d_output_torque"],
+                    reg["e_output_power"],
+                    reg["f_constant_w"],
+                ]
+            ),
         ),
         accessory_hybrid=_accessory(acc_h),
         accessory_conventional=_accessory(acc_c),

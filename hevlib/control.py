@@ -70,8 +70,9 @@ def rule_strengths(soc: float, grade: float, speed_kmh: float, torque_frac: floa
 
 
 @njit(cache=True)
-def decide(soc: float, grade: float, speed_kmh: float, torque_frac: float, th, on_threshold: float,
-           currently_on: bool) -> tuple:
+def decide(
+    soc: float, grade: float, speed_kmh: float, torque_frac: float, th, on_threshold: float, currently_on: bool
+) -> tuple:
     """(engine wanted ON, charge degree in [0, 1], boost degree in [0, 1]) from the fuzzy rules."""
     r1, r2, r3, r4, r5, r6, r7 = rule_strengths(soc, grade, speed_kmh, torque_frac, th)
     on = max(r1, r2, r5, r6, r7)
@@ -89,11 +90,11 @@ class PmsConfig(NamedTuple):
     on_threshold: float
     min_on_s: float
     min_off_s: float
-    p_min_w: float         # engine power floor while running
-    charge_frac: float     # charging power as a share of rated engine power at full charge degree
+    p_min_w: float  # engine power floor while running
+    charge_frac: float  # charging power as a share of rated engine power at full charge degree
     soc_target: float
     soc_min: float
-    soc_high: float        # no charging from the engine above this SOC
+    soc_high: float  # no charging from the engine above this SOC
 
 
 def thresholds(pms) -> np.ndarray:
@@ -103,9 +104,21 @@ def thresholds(pms) -> np.ndarray:
 
 
 @njit(cache=True)
-def supervise(engine_on: bool, t_in_state_s: float, soc: float, grade: float, v_kmh: float, lim: SplitLimits,
-              t_r_req: float, p_dis: float, th: np.ndarray, pc: PmsConfig, d: SplitDesign,
-              E: EngineArrays, M: MachineArrays) -> tuple[bool, float]:
+def supervise(
+    engine_on: bool,
+    t_in_state_s: float,
+    soc: float,
+    grade: float,
+    v_kmh: float,
+    lim: SplitLimits,
+    t_r_req: float,
+    p_dis: float,
+    th: np.ndarray,
+    pc: PmsConfig,
+    d: SplitDesign,
+    E: EngineArrays,
+    M: MachineArrays,
+) -> tuple[bool, float]:
     """Engine ON/OFF and target engine power (W) for the next step.
 
     Order of authority: physics first (the engine cannot run when its speed window is empty; it must run
@@ -126,7 +139,7 @@ def supervise(engine_on: bool, t_in_state_s: float, soc: float, grade: float, v_
     if t_r_req > 0.0:
         ev_ok = t_r_req <= t_m_cap and electric_power(t_r_req, w_r, d.s_mot, M) + d.p_acc_w <= p_dis
     elif t_r_req == 0.0:
-        ev_ok = d.p_acc_w <= p_dis        # standing or coasting: can the battery carry the accessories?
+        ev_ok = d.p_acc_w <= p_dis  # standing or coasting: can the battery carry the accessories?
     if not ev_ok:
         want = True
     if t_r_req < 0.0:

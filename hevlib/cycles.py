@@ -29,12 +29,14 @@ KMH = 1.0 / 3.6  # m/s per km/h
 #: Raw speed columns we understand, with the factor that turns them into m/s.
 RAW_SPEED_UNITS = {"speed_kmh": KMH, "speed_mps": 1.0, "speed_mph": 0.44704}
 
-CYCLE_SCHEMA = pa.schema([
-    pa.field("time_s", pa.float64(), nullable=False),
-    pa.field("speed_mps", pa.float64(), nullable=False),
-    pa.field("grade", pa.float64(), nullable=False),   # rise / run (0.2 = 20 %)
-    pa.field("key_on", pa.bool_(), nullable=False),    # False during prescribed key-off (no idle fuel)
-])
+CYCLE_SCHEMA = pa.schema(
+    [
+        pa.field("time_s", pa.float64(), nullable=False),
+        pa.field("speed_mps", pa.float64(), nullable=False),
+        pa.field("grade", pa.float64(), nullable=False),  # rise / run (0.2 = 20 %)
+        pa.field("key_on", pa.bool_(), nullable=False),  # False during prescribed key-off (no idle fuel)
+    ]
+)
 #: Columns every cycle file must have (``key_on`` defaults to all True when absent).
 REQUIRED_COLUMNS = ("time_s", "speed_mps", "grade")
 
@@ -51,7 +53,7 @@ class Cycle:
     time_s: np.ndarray
     speed_mps: np.ndarray
     grade: np.ndarray
-    key_on: np.ndarray | None = None    # bool per step; None = key on throughout
+    key_on: np.ndarray | None = None  # bool per step; None = key on throughout
 
     def __post_init__(self):
         for key in ("time_s", "speed_mps", "grade"):
@@ -104,8 +106,10 @@ class Cycle:
 
     # ------------------------------------------------------------------ persistence
     def to_parquet(self, path: str | Path) -> None:
-        table = pa.table({"time_s": self.time_s, "speed_mps": self.speed_mps, "grade": self.grade,
-                          "key_on": self.key_on}, schema=CYCLE_SCHEMA)
+        table = pa.table(
+            {"time_s": self.time_s, "speed_mps": self.speed_mps, "grade": self.grade, "key_on": self.key_on},
+            schema=CYCLE_SCHEMA,
+        )
         write_parquet(path, table, metadata={"cycle": self.name})
 
     @classmethod
@@ -127,12 +131,12 @@ class Cycle:
             raise CycleError(f"{path}: {err}") from None
 
 
-def _check_trace(where: str, time_s: np.ndarray, speed_mps: np.ndarray, *,
-                 first_line: int | None = None) -> None:
+def _check_trace(where: str, time_s: np.ndarray, speed_mps: np.ndarray, *, first_line: int | None = None) -> None:
     """Equal lengths, >= 2 points, finite values, strictly increasing time, non-negative speed.
 
     Positions are reported as file lines (``first_line`` = line of the first value) or array indices.
     """
+
     def at(i: int) -> str:
         return f"line {i + first_line}" if first_line is not None else f"index {i}"
 
@@ -195,8 +199,15 @@ def key_on_mask(time_s: np.ndarray, key_off_intervals_s) -> np.ndarray:
     return on
 
 
-def load_cycle(path: str | Path, *, name: str, step_s: float = 1.0, grade: float = 0.0,
-               key_off_intervals_s=(), expected_points: int | None = None) -> Cycle:
+def load_cycle(
+    path: str | Path,
+    *,
+    name: str,
+    step_s: float = 1.0,
+    grade: float = 0.0,
+    key_off_intervals_s=(),
+    expected_points: int | None = None,
+) -> Cycle:
     """Raw CSV -> checked, resampled :class:`Cycle` on a constant grade (rise/run).
 
     ``key_off_intervals_s`` are in the raw file's time; the cycle's time starts at 0. ``expected_points``
@@ -204,14 +215,15 @@ def load_cycle(path: str | Path, *, name: str, step_s: float = 1.0, grade: float
     """
     time_s, speed = read_raw_cycle(path)
     if expected_points is not None and len(time_s) != expected_points:
-        raise CycleError(f"{path}: {len(time_s)} data rows, but cycles.yaml gives {expected_points} points "
-                         f"(truncated or padded file)")
+        raise CycleError(
+            f"{path}: {len(time_s)} data rows, but cycles.yaml gives {expected_points} points "
+            f"(truncated or padded file)"
+        )
     try:
         grid, v = resample(time_s, speed, step_s)
     except CycleError as err:
         raise CycleError(f"{path}: {err}") from None
-    return Cycle(name, grid - grid[0], v, np.full(len(grid), float(grade)),
-                 key_on_mask(grid, key_off_intervals_s))
+    return Cycle(name, grid - grid[0], v, np.full(len(grid), float(grade)), key_on_mask(grid, key_off_intervals_s))
 
 
 def read_expected_points(raw_dir: str | Path) -> dict[str, int]:
@@ -255,9 +267,17 @@ def build_cycles(cfg: CyclesParams) -> dict[str, Cycle]:
         raise FileNotFoundError(f"{raw}: cycle directory missing (params cycles.raw_dir)")
     key_off = read_key_off_intervals(raw)
     points = read_expected_points(raw)
-    return {name: load_cycle(raw / spec.file, name=name, step_s=cfg.step_s, grade=spec.grade_pct / 100.0,
-                             key_off_intervals_s=key_off.get(spec.file, ()), expected_points=points.get(spec.file))
-            for name, spec in cfg.cycles.items()}
+    return {
+        name: load_cycle(
+            raw / spec.file,
+            name=name,
+            step_s=cfg.step_s,
+            grade=spec.grade_pct / 100.0,
+            key_off_intervals_s=key_off.get(spec.file, ()),
+            expected_points=points.get(spec.file),
+        )
+        for name, spec in cfg.cycles.items()
+    }
 
 
 def write_cycles(cycles: Mapping[str, Cycle], out_dir: str | Path, report_path: str | Path) -> None:

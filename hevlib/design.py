@@ -14,17 +14,43 @@ INTEGER_MASK = np.array([v in INTEGER_VARS for v in DESIGN_VARS])
 
 #: The eleven objectives of SPEC section 5 (units: kg, L/100 km, %, g/km x3, km, -, -, km/h, m/s^2).
 OBJECTIVES: tuple[str, ...] = (
-    "m_veh", "fc", "accel_dev", "hc", "co", "nox", "e_l", "speed_dev", "diff_soc", "v_max", "f_max",
+    "m_veh",
+    "fc",
+    "accel_dev",
+    "hc",
+    "co",
+    "nox",
+    "e_l",
+    "speed_dev",
+    "diff_soc",
+    "v_max",
+    "f_max",
 )
 #: +1 minimised, -1 maximised (v_max, f_max).
 SENSE = np.array([-1.0 if k in ("v_max", "f_max") else 1.0 for k in OBJECTIVES])
 OBJECTIVE_UNITS = {
-    "m_veh": "kg", "fc": "L/100 km", "accel_dev": "%", "hc": "g/km", "co": "g/km", "nox": "g/km",
-    "e_l": "km", "speed_dev": "-", "diff_soc": "-", "v_max": "km/h", "f_max": "m/s^2",
+    "m_veh": "kg",
+    "fc": "L/100 km",
+    "accel_dev": "%",
+    "hc": "g/km",
+    "co": "g/km",
+    "nox": "g/km",
+    "e_l": "km",
+    "speed_dev": "-",
+    "diff_soc": "-",
+    "v_max": "km/h",
+    "f_max": "m/s^2",
 }
 #: Extra responses every simulation reports beside the objectives.
-EXTRA_RESPONSES: tuple[str, ...] = ("fc_soc_corrected", "eta_drivetrain", "t_0_100_s", "cycle_met",
-                                    "speed_err_mean_kmh", "stalled", "accessory_unmet_kwh")
+EXTRA_RESPONSES: tuple[str, ...] = (
+    "fc_soc_corrected",
+    "eta_drivetrain",
+    "t_0_100_s",
+    "cycle_met",
+    "speed_err_mean_kmh",
+    "stalled",
+    "accessory_unmet_kwh",
+)
 RESPONSES: tuple[str, ...] = OBJECTIVES + EXTRA_RESPONSES
 #: Responses that are flags (bool columns); every other response is a float.
 BOOL_RESPONSES: tuple[str, ...] = ("cycle_met", "stalled")
@@ -125,8 +151,11 @@ def gear_set_buildable(n_r: np.ndarray, n_s: np.ndarray, n_planets: int = 4, min
 def buildable_gear_sets(space: DesignSpace, n_planets: int = 4, min_planet_teeth: int = 9) -> np.ndarray:
     """Every buildable (n_r, n_s) pair (:func:`gear_set_buildable`) inside the design space, (k, 2) ints."""
     j_r, j_s = DESIGN_VARS.index("n_r"), DESIGN_VARS.index("n_s")
-    n_r, n_s = np.meshgrid(np.arange(np.ceil(space.lower[j_r]), np.floor(space.upper[j_r]) + 1),
-                           np.arange(np.ceil(space.lower[j_s]), np.floor(space.upper[j_s]) + 1), indexing="ij")
+    n_r, n_s = np.meshgrid(
+        np.arange(np.ceil(space.lower[j_r]), np.floor(space.upper[j_r]) + 1),
+        np.arange(np.ceil(space.lower[j_s]), np.floor(space.upper[j_s]) + 1),
+        indexing="ij",
+    )
     n_r, n_s = n_r.ravel().astype(int), n_s.ravel().astype(int)
     ok = gear_set_buildable(n_r, n_s, n_planets, min_planet_teeth)
     return np.column_stack([n_r[ok], n_s[ok]])

@@ -48,10 +48,22 @@ METHODS = ("l27", "lhs", "both")
 SOURCES = ("l27", "lhs", "heldout")
 
 UNITS: dict[str, str] = {
-    "p_eng_kw": "kW", "p_mot_kw": "kW", "p_gen_kw": "kW", "i0": "-", "n_bat": "modules", "n_r": "teeth",
-    "n_s": "teeth", **OBJECTIVE_UNITS, "fc_soc_corrected": "L/100 km", "eta_drivetrain": "-",
-    "t_0_100_s": "s", "cycle_met": "bool", "speed_err_mean_kmh": "km/h", "stalled": "bool",
-    "accessory_unmet_kwh": "kWh", "source": "-",
+    "p_eng_kw": "kW",
+    "p_mot_kw": "kW",
+    "p_gen_kw": "kW",
+    "i0": "-",
+    "n_bat": "modules",
+    "n_r": "teeth",
+    "n_s": "teeth",
+    **OBJECTIVE_UNITS,
+    "fc_soc_corrected": "L/100 km",
+    "eta_drivetrain": "-",
+    "t_0_100_s": "s",
+    "cycle_met": "bool",
+    "speed_err_mean_kmh": "km/h",
+    "stalled": "bool",
+    "accessory_unmet_kwh": "kWh",
+    "source": "-",
 }
 
 
@@ -123,8 +135,9 @@ def repair_gear_set(X: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray
     return X
 
 
-def doe_designs(method: str, n_lhs: int, seed: int, space: DesignSpace,
-                l27_path: str | Path = L27_FILE) -> tuple[np.ndarray, np.ndarray]:
+def doe_designs(
+    method: str, n_lhs: int, seed: int, space: DesignSpace, l27_path: str | Path = L27_FILE
+) -> tuple[np.ndarray, np.ndarray]:
     """The DOE of ``method`` (``l27``, ``lhs`` or ``both``): designs (n, 7) and their source labels (n,)."""
     if method not in METHODS:
         raise ValueError(f"doe.method: unknown method {method!r} (use {', '.join(METHODS)})")
@@ -139,8 +152,15 @@ def doe_designs(method: str, n_lhs: int, seed: int, space: DesignSpace,
 
 
 # ------------------------------------------------------------------------------------- simulation
-def simulate_designs(sim, X: np.ndarray, source: np.ndarray | str, cycle, *, batch_size: int = 1000,
-                     progress: Callable[[int, int], None] | None = None) -> pa.Table:
+def simulate_designs(
+    sim,
+    X: np.ndarray,
+    source: np.ndarray | str,
+    cycle,
+    *,
+    batch_size: int = 1000,
+    progress: Callable[[int, int], None] | None = None,
+) -> pa.Table:
     """Simulate the hybrid designs ``X`` on ``cycle`` in batches and return the DOE table.
 
     ``sim`` is a :class:`hevlib.simulate.Simulator`; ``progress(n_done, n_total)`` is called after each
@@ -178,23 +198,31 @@ def doe_table(X: np.ndarray, responses: pd.DataFrame, source: np.ndarray | str) 
 def doe_record(p) -> dict:
     """How the DOE designs of ``DoeParams`` ``p`` are drawn (stored with the table)."""
     lhs, l27 = p.method != "l27", p.method != "lhs"
-    return {"method": p.method, "n_lhs": p.n_lhs if lhs else 0, "seed": p.seed if lhs else None,
-            "l27_file": p.l27_file if l27 else None}
+    return {
+        "method": p.method,
+        "n_lhs": p.n_lhs if lhs else 0,
+        "seed": p.seed if lhs else None,
+        "l27_file": p.l27_file if l27 else None,
+    }
 
 
 def heldout_record(space: DesignSpace, p) -> dict:
     """How the held-out designs of ``HeldoutParams`` ``p`` are drawn (a stored set is reused if equal)."""
-    return {"method": "lhs", "n": p.n, "seed": p.seed, "lower": space.lower.tolist(),
-            "upper": space.upper.tolist()}
+    return {"method": "lhs", "n": p.n, "seed": p.seed, "lower": space.lower.tolist(), "upper": space.upper.tolist()}
 
 
 def simulation_fingerprint(params) -> str:
     """Short hash of everything that changes a simulated response: the model version, the simulator's
     source code and the params groups ``cycles``, ``baseline``, ``sim``, ``pms`` (a cached simulated set
     is reused only if equal)."""
-    blob = json.dumps({"model_version": MODEL_VERSION, "simulator_source": source_hash(SIMULATOR_SOURCES),
-                       **params.model_dump(mode="json", include={"cycles", "baseline", "sim", "pms"})},
-                      sort_keys=True)
+    blob = json.dumps(
+        {
+            "model_version": MODEL_VERSION,
+            "simulator_source": source_hash(SIMULATOR_SOURCES),
+            **params.model_dump(mode="json", include={"cycles", "baseline", "sim", "pms"}),
+        },
+        sort_keys=True,
+    )
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
@@ -212,8 +240,9 @@ def run_metadata(cycle, params, **design: object) -> dict[str, str]:
 
 def is_current(metadata: dict[str, str], params, **design: object) -> bool:
     """Whether a stored simulated set was made with this simulator setup and these design choices."""
-    return (metadata.get("hev.sim_fingerprint") == simulation_fingerprint(params)
-            and metadata.get("hev.design") == json.dumps(design, sort_keys=True, default=str))
+    return metadata.get("hev.sim_fingerprint") == simulation_fingerprint(params) and metadata.get(
+        "hev.design"
+    ) == json.dumps(design, sort_keys=True, default=str)
 
 
 def write_doe(path: str | Path, table: pa.Table, metadata: dict[str, str]) -> None:
@@ -246,16 +275,26 @@ def doe_summary(df: pd.DataFrame, metadata: dict[str, str]) -> dict:
     for c in numeric:
         col = df[c].to_numpy(dtype=float)
         fin = col[np.isfinite(col)]
-        ranges[c] = {"unit": UNITS[c], "min": float(fin.min()) if fin.size else None,
-                     "max": float(fin.max()) if fin.size else None,
-                     "mean": float(fin.mean()) if fin.size else None,
-                     "n_non_finite": int(col.size - fin.size)}
+        ranges[c] = {
+            "unit": UNITS[c],
+            "min": float(fin.min()) if fin.size else None,
+            "max": float(fin.max()) if fin.size else None,
+            "mean": float(fin.mean()) if fin.size else None,
+            "n_non_finite": int(col.size - fin.size),
+        }
     missed = df.index[~df["cycle_met"].to_numpy(dtype=bool)]
-    failed = [{"row": int(i), "source": str(df.at[i, "source"]),
-               **{v: float(df.at[i, v]) for v in DESIGN_VARS},
-               "e_l": float(df.at[i, "e_l"]), "speed_dev": float(df.at[i, "speed_dev"]),
-               "stalled": bool(df.at[i, "stalled"]),
-               "accessory_unmet_kwh": float(df.at[i, "accessory_unmet_kwh"])} for i in missed]
+    failed = [
+        {
+            "row": int(i),
+            "source": str(df.at[i, "source"]),
+            **{v: float(df.at[i, v]) for v in DESIGN_VARS},
+            "e_l": float(df.at[i, "e_l"]),
+            "speed_dev": float(df.at[i, "speed_dev"]),
+            "stalled": bool(df.at[i, "stalled"]),
+            "accessory_unmet_kwh": float(df.at[i, "accessory_unmet_kwh"]),
+        }
+        for i in missed
+    ]
     return {
         "n_designs": int(len(df)),
         "by_source": {s: int((df["source"] == s).sum()) for s in SOURCES if (df["source"] == s).any()},

@@ -25,7 +25,7 @@ from hevlib.powertrain.lookup import cell
 from hevlib.powertrain.machines import MachineArrays, torque_limit
 from hevlib.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_force
 
-LIMIT_TOL = 1e-9          # relative tolerance of the limit checks
+LIMIT_TOL = 1e-9  # relative tolerance of the limit checks
 
 
 class BatteryArrays(NamedTuple):
@@ -58,25 +58,25 @@ class DriveConfig(NamedTuple):
     eta_pg: float
     eta_fd: float
     i_max_a: float
-    brake_v_mps: np.ndarray   # braking split of the wheel file: speed axis ...
-    brake_share: np.ndarray   # ... and the share of braking the driveline may take (regeneration)
-    p_acc_w: float            # hybrid: electrical; conventional: mechanical
+    brake_v_mps: np.ndarray  # braking split of the wheel file: speed axis ...
+    brake_share: np.ndarray  # ... and the share of braking the driveline may take (regeneration)
+    p_acc_w: float  # hybrid: electrical; conventional: mechanical
     lhv_j_per_g: float
     w_e_min: float
     w_e_max: float
     w_m_max: float
     w_g_max: float
-    cap_as: float             # module capacity, A s
+    cap_as: float  # module capacity, A s
     eta_c: float
     v_min_mod: float
     v_max_mod: float
     w_idle: float
     w_launch: float
-    j_wheel: float            # all wheels, tyres and axles, kg m^2
-    j_eng: float              # base-map rotor inertias (scaled with each design's power), kg m^2
+    j_wheel: float  # all wheels, tyres and axles, kg m^2
+    j_eng: float  # base-map rotor inertias (scaled with each design's power), kg m^2
     j_mot: float
     j_gen: float
-    off_trace_mps: float      # speed error above which a step counts as off the trace (speed_dev)
+    off_trace_mps: float  # speed error above which a step counts as off the trace (speed_dev)
 
 
 #: Achieved speed below which the car counts as standing still, m/s (and the trace as asking it to move
@@ -91,8 +91,9 @@ N_R = 8
 
 @njit(cache=True, inline="always")
 def chassis(m: float, m_eff: float, c: DriveConfig) -> Chassis:
-    return Chassis(m, m_eff, c.cda, c.crr, c.r, c.axle0_nm + c.axle_per_kg_nm * m, c.h_over_l,
-                   c.f_front, c.mu, c.rho, c.g)
+    return Chassis(
+        m, m_eff, c.cda, c.crr, c.r, c.axle0_nm + c.axle_per_kg_nm * m, c.h_over_l, c.f_front, c.mu, c.rho, c.g
+    )
 
 
 @njit(cache=True, inline="always")
@@ -106,8 +107,7 @@ def split_equivalent_mass_kg(row: np.ndarray, c: DriveConfig) -> float:
     """
     k = row[R_N_R] / row[R_N_S]
     g2 = (row[R_I0] / c.r) ** 2
-    return (row[R_MASS] + c.j_wheel / (c.r * c.r)
-            + (row[R_S_MOT] * c.j_mot + k * k * row[R_S_GEN] * c.j_gen) * g2)
+    return row[R_MASS] + c.j_wheel / (c.r * c.r) + (row[R_S_MOT] * c.j_mot + k * k * row[R_S_GEN] * c.j_gen) * g2
 
 
 @njit(cache=True, inline="always")
@@ -128,8 +128,22 @@ def driveline_brake_share(v: float, c: DriveConfig) -> float:
 
 @njit(cache=True, inline="always")
 def split_design(row: np.ndarray, c: DriveConfig) -> split.SplitDesign:
-    return split.SplitDesign(row[R_S_ENG], row[R_S_MOT], row[R_S_GEN], row[R_I0], row[R_N_R], row[R_N_S], c.r,
-                             c.w_e_min, c.w_e_max, c.w_m_max, c.w_g_max, c.eta_pg, c.eta_fd, c.p_acc_w)
+    return split.SplitDesign(
+        row[R_S_ENG],
+        row[R_S_MOT],
+        row[R_S_GEN],
+        row[R_I0],
+        row[R_N_R],
+        row[R_N_S],
+        c.r,
+        c.w_e_min,
+        c.w_e_max,
+        c.w_m_max,
+        c.w_g_max,
+        c.eta_pg,
+        c.eta_fd,
+        c.p_acc_w,
+    )
 
 
 @njit(cache=True, inline="always")
@@ -153,8 +167,20 @@ def pack_state(soc: float, n_bat: float, B: BatteryArrays) -> tuple[float, float
 @njit(cache=True, inline="always")
 def pack_limits(soc: float, n_bat: float, c: DriveConfig, B: BatteryArrays) -> tuple[float, float]:
     ocv, r_d, r_c = pack_state(soc, n_bat, B)
-    return power_limits(ocv, r_d, r_c, n_bat * c.v_min_mod, n_bat * c.v_max_mod, c.i_max_a, soc, c.soc_min,
-                        c.soc_max, c.cap_as, c.eta_c, c.dt)
+    return power_limits(
+        ocv,
+        r_d,
+        r_c,
+        n_bat * c.v_min_mod,
+        n_bat * c.v_max_mod,
+        c.i_max_a,
+        soc,
+        c.soc_min,
+        c.soc_max,
+        c.cap_as,
+        c.eta_c,
+        c.dt,
+    )
 
 
 @njit(cache=True, inline="always")
@@ -198,7 +224,7 @@ def _book_wheel(o, f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch):
 def _book_following(o, v_ref_now, v_ref_next, v0, v_next, v_avg, dt, off_trace_mps):
     """Cycle-following statistics of one step: acceleration shortfall, speed error and time off the
     trace, distances, and the spell the car has stood still while the cycle asked it to move."""
-    a_req = (v_ref_next - v_ref_now) / dt       # what the cycle asks for this step
+    a_req = (v_ref_next - v_ref_now) / dt  # what the cycle asks for this step
     if a_req > 0.0:
         o[L.O_ACC_REQ] += a_req
         o[L.O_ACC_SHORT] += _clean(a_req - (v_next - v0) / dt)
@@ -223,7 +249,7 @@ def _over(x: float, cap: float) -> bool:
     return x > cap * (1.0 + LIMIT_TOL) + 1e-12
 
 
-SPEED_TOL = 1e-4          # m/s, convergence of a force-limited step's speed
+SPEED_TOL = 1e-4  # m/s, convergence of a force-limited step's speed
 
 
 @njit(cache=True, inline="always")
@@ -267,10 +293,25 @@ def _limited_conv(v0, v_req, v_cap, f_cmd, ratio, sn, cs, dt, st, d, ch, E):
     return st, v_b, mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch)
 
 
-
 @njit(cache=True)
-def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: MachineArrays, G: MachineArrays,
-                B: BatteryArrays, v_ref, grade, sin_g, cos_g, key_on, o, tr, record: bool):
+def _hybrid_one(
+    row,
+    c: DriveConfig,
+    th,
+    pc: PmsConfig,
+    E: EngineArrays,
+    M: MachineArrays,
+    G: MachineArrays,
+    B: BatteryArrays,
+    v_ref,
+    grade,
+    sin_g,
+    cos_g,
+    key_on,
+    o,
+    tr,
+    record: bool,
+):
     d = split_design(row, c)
     ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c), c)
     n_bat = row[R_N_BAT]
@@ -288,8 +329,20 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
         v_ref_next = v_ref[t + 1]
         v_tgt = min(v_ref_next, v_lim)
         ocv, r_d, r_c = pack_state(soc, n_bat, B)
-        p_dis, p_chg = power_limits(ocv, r_d, r_c, n_bat * c.v_min_mod, n_bat * c.v_max_mod, c.i_max_a, soc,
-                                    c.soc_min, c.soc_max, cap, c.eta_c, dt)
+        p_dis, p_chg = power_limits(
+            ocv,
+            r_d,
+            r_c,
+            n_bat * c.v_min_mod,
+            n_bat * c.v_max_mod,
+            c.i_max_a,
+            soc,
+            c.soc_min,
+            c.soc_max,
+            cap,
+            c.eta_c,
+            dt,
+        )
         stationary = v0 <= 1e-9 and v_tgt <= 1e-9
         if stationary and not key_on[t]:
             # prescribed key-off (e.g. the FTP soak): nothing runs, no accessory load
@@ -328,8 +381,9 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
                 limited = st.f_del < f_req - 1e-6 * max(1.0, f_req)
             if limited:
                 o[L.O_N_LIMITED] += 1.0
-                st, v_disp, v_avg = _limited_split(v0, v_req, v_req, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st,
-                                                   d, ch, E, M, G)
+                st, v_disp, v_avg = _limited_split(
+                    v0, v_req, v_req, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st, d, ch, E, M, G
+                )
             else:
                 v_avg = v_req
                 f_brake = f_req - st.f_del
@@ -348,7 +402,7 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
             fuel, hc, co, nox = rates(st.w_e, st.t_e, d.s_eng, E)
             o[L.O_ENG_ON_STEPS] += 1.0
         elif st.w_e > 0.0:
-            o[L.O_ENG_SPUN_STEPS] += 1.0          # spun by the gear set with its fuel cut
+            o[L.O_ENG_SPUN_STEPS] += 1.0  # spun by the gear set with its fuel cut
         p_shaft = st.t_e * st.w_e
         # ---- energy accounting (J)
         _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, dt)
@@ -419,8 +473,24 @@ def _hybrid_one(row, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Mach
 
 
 @njit(cache=True, parallel=True)
-def drive_hybrid(rows, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: MachineArrays,
-                 G: MachineArrays, B: BatteryArrays, v_ref, grade, sin_g, cos_g, key_on, out, traces, rec_index):
+def drive_hybrid(
+    rows,
+    c: DriveConfig,
+    th,
+    pc: PmsConfig,
+    E: EngineArrays,
+    M: MachineArrays,
+    G: MachineArrays,
+    B: BatteryArrays,
+    v_ref,
+    grade,
+    sin_g,
+    cos_g,
+    key_on,
+    out,
+    traces,
+    rec_index,
+):
     """Drive every design (rows of the design matrix, ``R_*`` columns) over the cycle; fill ``out``."""
     for i in prange(rows.shape[0]):
         j = rec_index[i]
@@ -429,10 +499,24 @@ def drive_hybrid(rows, c: DriveConfig, th, pc: PmsConfig, E: EngineArrays, M: Ma
 
 
 @njit(cache=True)
-def _conventional_one(row, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesign, E: EngineArrays,
-                      v_ref, grade, sin_g, cos_g, key_on, o, tr, record: bool):
+def _conventional_one(
+    row,
+    c: DriveConfig,
+    ratios,
+    upshift_kmh,
+    d: conv.ConvDesign,
+    E: EngineArrays,
+    v_ref,
+    grade,
+    sin_g,
+    cos_g,
+    key_on,
+    o,
+    tr,
+    record: bool,
+):
     m = row[R_MASS]
-    m_free = conventional_equivalent_mass_kg(m, 0.0, False, d.s_eng, c)   # clutch open
+    m_free = conventional_equivalent_mass_kg(m, 0.0, False, d.s_eng, c)  # clutch open
     m_prev = m_free
     ch = chassis(m, m_free, c)
     dt = c.dt
@@ -457,7 +541,7 @@ def _conventional_one(row, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesi
         f_req = 0.0 if stationary else ch.m_eff * (v_tgt - v0) / dt + f_road
         g0 = conv.scheduled_gear(v0 * 3.6, upshift_kmh)
         while g0 > 0 and v_req / d.r * ratios[g0] < d.w_idle and f_req > 0.0:
-            g0 -= 1                                   # never lug below idle in a traction step
+            g0 -= 1  # never lug below idle in a traction step
         gear = g0
         # equivalent mass of the gear in use: the engine is reflected while the clutch is closed (traction
         # above the launch speed); the gear is chosen on it, and the mass re-taken once for a kick-down
@@ -467,7 +551,7 @@ def _conventional_one(row, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesi
             ch = chassis(m, m_eff, c)
             f_try = 0.0 if stationary else m_eff * (v_tgt - v0) / dt + f_road
             if engaged and f_try <= 0.0:
-                ch = chassis(m, m_free, c)            # the reflected engine would turn traction into braking
+                ch = chassis(m, m_free, c)  # the reflected engine would turn traction into braking
                 f_try = 0.0 if stationary else m_free * (v_tgt - v0) / dt + f_road
             f_cmd = min(f_try, adhesion_limit(sn, cs, f_road, ch))
             g_best = conv.best_gear(v_req, f_cmd, g0, ratios, d, E) if f_cmd > 0.0 else g0
@@ -531,10 +615,24 @@ def _conventional_one(row, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesi
 
 
 @njit(cache=True)
-def drive_conventional(rows, c: DriveConfig, ratios, upshift_kmh, d: conv.ConvDesign, E: EngineArrays,
-                       v_ref, grade, sin_g, cos_g, key_on, out, traces, rec_index):
+def drive_conventional(
+    rows,
+    c: DriveConfig,
+    ratios,
+    upshift_kmh,
+    d: conv.ConvDesign,
+    E: EngineArrays,
+    v_ref,
+    grade,
+    sin_g,
+    cos_g,
+    key_on,
+    out,
+    traces,
+    rec_index,
+):
     for i in range(rows.shape[0]):
         j = rec_index[i]
-        _conventional_one(rows[i], c, ratios, upshift_kmh, d, E, v_ref, grade, sin_g, cos_g, key_on, out[i],
-                          traces[max(j, 0)],
-                          j >= 0)
+        _conventional_one(
+            rows[i], c, ratios, upshift_kmh, d, E, v_ref, grade, sin_g, cos_g, key_on, out[i], traces[max(j, 0)], j >= 0
+        )

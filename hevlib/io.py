@@ -28,7 +28,7 @@ def atomic_path(path: str | os.PathLike):
     os.close(fd)
     try:
         yield Path(tmp)
-        os.chmod(tmp, 0o666 & ~_UMASK)   # mkstemp creates 0600; outputs get the usual permissions
+        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp creates 0600; outputs get the usual permissions
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -69,8 +69,12 @@ def write_text(path: str | os.PathLike, text: str) -> None:
         tmp.write_text(text)
 
 
-def write_parquet(path: str | os.PathLike, table: pd.DataFrame | pa.Table, schema: pa.Schema | None = None,
-                  metadata: dict[str, str] | None = None) -> None:
+def write_parquet(
+    path: str | os.PathLike,
+    table: pd.DataFrame | pa.Table,
+    schema: pa.Schema | None = None,
+    metadata: dict[str, str] | None = None,
+) -> None:
     """Write a Parquet file with an explicit schema (columns must match it exactly)."""
     if isinstance(table, pd.DataFrame):
         table = pa.Table.from_pandas(table, schema=schema, preserve_index=False)
@@ -100,13 +104,20 @@ class UniqueKeyLoader(yaml.SafeLoader):
             key = self.construct_object(key_node, deep=deep)
             if key in seen:
                 raise yaml.constructor.ConstructorError(
-                    None, None, f"duplicate key {key!r} (line {key_node.start_mark.line + 1})", key_node.start_mark)
+                    None, None, f"duplicate key {key!r} (line {key_node.start_mark.line + 1})", key_node.start_mark
+                )
             seen.add(key)
         return super().construct_mapping(node, deep=deep)
 
 
-def read_yaml_mapping(path: str | os.PathLike, *, what: str, error: type[Exception] = ValueError,
-                      missing_error: type[Exception] = FileNotFoundError, empty_ok: bool = False) -> dict:
+def read_yaml_mapping(
+    path: str | os.PathLike,
+    *,
+    what: str,
+    error: type[Exception] = ValueError,
+    missing_error: type[Exception] = FileNotFoundError,
+    empty_ok: bool = False,
+) -> dict:
     """A YAML file whose top level is a mapping, with one-line errors naming the file (``what``: what
     the file is, for the messages). ``empty_ok``: an empty file reads as ``{}``."""
     path = Path(path)

@@ -92,21 +92,41 @@ class HevProblem(Problem):
     ``buildable_gear_set`` makes the repair snap (n_r, n_s) to the nearest buildable planetary set.
     """
 
-    def __init__(self, surrogate, space: DesignSpace, mass_kg: Callable[[np.ndarray], np.ndarray],
-                 m_veh_max_kg: float, *, speed_dev_max: float | None = None, gen_below_motor: bool = False,
-                 buildable_gear_set: bool = False, stalled: Callable[[np.ndarray], np.ndarray] | None = None):
+    def __init__(
+        self,
+        surrogate,
+        space: DesignSpace,
+        mass_kg: Callable[[np.ndarray], np.ndarray],
+        m_veh_max_kg: float,
+        *,
+        speed_dev_max: float | None = None,
+        gen_below_motor: bool = False,
+        buildable_gear_set: bool = False,
+        stalled: Callable[[np.ndarray], np.ndarray] | None = None,
+    ):
         if not m_veh_max_kg > 0:
             raise ValueError(f"m_veh_max_kg: must be positive, got {m_veh_max_kg}")
         j_r, j_s = DESIGN_VARS.index("n_r"), DESIGN_VARS.index("n_s")
         if space.upper[j_s] >= space.lower[j_r]:
-            raise ValueError("design_space.n_s: upper bound must lie below n_r's lower bound, or the optimisers "
-                             "would propose gear sets with n_s >= n_r")
+            raise ValueError(
+                "design_space.n_s: upper bound must lie below n_r's lower bound, or the optimisers "
+                "would propose gear sets with n_s >= n_r"
+            )
         if speed_dev_max is not None and not speed_dev_max > 0:
             raise ValueError(f"speed_dev_max: must be positive, got {speed_dev_max}")
-        self.constraint_names = ["mass"] + (["speed_dev"] if speed_dev_max is not None else []) \
-            + (["gen_below_motor"] if gen_below_motor else []) + (["stalled"] if stalled is not None else [])
-        super().__init__(n_var=space.n, n_obj=len(OBJECTIVES), n_ieq_constr=len(self.constraint_names),
-                         xl=space.lower, xu=space.upper)
+        self.constraint_names = (
+            ["mass"]
+            + (["speed_dev"] if speed_dev_max is not None else [])
+            + (["gen_below_motor"] if gen_below_motor else [])
+            + (["stalled"] if stalled is not None else [])
+        )
+        super().__init__(
+            n_var=space.n,
+            n_obj=len(OBJECTIVES),
+            n_ieq_constr=len(self.constraint_names),
+            xl=space.lower,
+            xu=space.upper,
+        )
         self.surrogate = surrogate
         self.mass_kg = mass_kg
         self.m_veh_max_kg = float(m_veh_max_kg)
@@ -214,10 +234,16 @@ class _Reformulated(Problem):
     objectives as ``penalty * sum(max(G, 0))`` (``penalty``, MOEA/D, which takes no constraints).
     Without ``penalty`` the base constraints are passed through unchanged."""
 
-    def __init__(self, base: Problem, norm: Normalisation, *, weights: np.ndarray | None = None,
-                 penalty: float | None = None):
-        super().__init__(n_var=base.n_var, n_obj=base.n_obj if weights is None else 1,
-                         n_ieq_constr=base.n_ieq_constr if penalty is None else 0, xl=base.xl, xu=base.xu)
+    def __init__(
+        self, base: Problem, norm: Normalisation, *, weights: np.ndarray | None = None, penalty: float | None = None
+    ):
+        super().__init__(
+            n_var=base.n_var,
+            n_obj=base.n_obj if weights is None else 1,
+            n_ieq_constr=base.n_ieq_constr if penalty is None else 0,
+            xl=base.xl,
+            xu=base.xu,
+        )
         self.base, self.norm, self.penalty = base, norm, penalty
         self.weights = None if weights is None else np.asarray(weights, dtype=float)
         self.integer_mask = getattr(base, "integer_mask", None)
@@ -236,8 +262,9 @@ class _Reformulated(Problem):
 
 
 # --------------------------------------------------------------------------------- building blocks
-def reference_directions(n_obj: int, *, partitions: list[int] | None = None, n_points: int | None = None,
-                         seed: int = 0) -> np.ndarray:
+def reference_directions(
+    n_obj: int, *, partitions: list[int] | None = None, n_points: int | None = None, seed: int = 0
+) -> np.ndarray:
     """Directions on the unit simplex: layered Das-Dennis (``partitions``) or Riesz s-energy (``n_points``).
 
     ``partitions=[p1, p2, ...]``: layer ``i`` is the Das-Dennis lattice with ``p_i`` partitions shrunk
@@ -254,13 +281,17 @@ def reference_directions(n_obj: int, *, partitions: list[int] | None = None, n_p
         if n_points == 1 or n_obj == 1:
             return np.full((n_points, n_obj), 1.0 / n_obj)
         if n_points < n_obj:
-            raise ValueError(f"reference_directions: {n_points} energy directions cannot cover {n_obj} "
-                             f"objectives (use 1 or at least {n_obj})")
+            raise ValueError(
+                f"reference_directions: {n_points} energy directions cannot cover {n_obj} "
+                f"objectives (use 1 or at least {n_obj})"
+            )
         return _riesz_directions(int(n_obj), int(n_points), int(seed)).copy()
     if not partitions or any(p < 1 for p in partitions):
         raise ValueError(f"ref_dirs_partitions: need at least one layer of >= 1 partitions, got {partitions}")
-    layers = [UniformReferenceDirectionFactory(n_obj, n_partitions=int(p), scaling=0.5 ** i).do()
-              for i, p in enumerate(partitions)]
+    layers = [
+        UniformReferenceDirectionFactory(n_obj, n_partitions=int(p), scaling=0.5**i).do()
+        for i, p in enumerate(partitions)
+    ]
     return np.unique(np.vstack(layers).round(12), axis=0)
 
 
@@ -291,14 +322,15 @@ def _settings_normalisation(problem: Problem, settings: AlgoParams) -> Normalisa
 def _operators(problem: Problem, settings: AlgoParams) -> dict:
     """Study operators: SBX with crossover probability ``crossover_prob`` per mating, polynomial mutation
     of every offspring with probability ``mutation_prob`` per variable; the integer repair."""
-    return dict(sampling=FloatRandomSampling(),
-                crossover=SBX(prob=settings.crossover_prob, eta=SBX_ETA),
-                mutation=PM(prob=1.0, prob_var=settings.mutation_prob, eta=PM_ETA),
-                repair=_integer_repair(problem))
+    return dict(
+        sampling=FloatRandomSampling(),
+        crossover=SBX(prob=settings.crossover_prob, eta=SBX_ETA),
+        mutation=PM(prob=1.0, prob_var=settings.mutation_prob, eta=PM_ETA),
+        repair=_integer_repair(problem),
+    )
 
 
-def run(problem: Problem, algorithm, n_gen: int, seed: int,
-        progress: Callable[[int, int], None] | None = None):
+def run(problem: Problem, algorithm, n_gen: int, seed: int, progress: Callable[[int, int], None] | None = None):
     """The one call of :func:`pymoo.optimize.minimize`: ``n_gen`` generations, seeded, quiet;
     ``progress(generation, n_gen)`` after each generation (a progress bar at a terminal)."""
     extra = {} if progress is None else {"callback": lambda algorithm: progress(int(algorithm.n_gen), int(n_gen))}
@@ -330,8 +362,7 @@ class Front:
         return len(self.X)
 
 
-def _front(problem: Problem, X: np.ndarray, *, algo: str, n_evaluations: int, t0: float,
-           settings: dict) -> Front:
+def _front(problem: Problem, X: np.ndarray, *, algo: str, n_evaluations: int, t0: float, settings: dict) -> Front:
     X = np.unique(_repaired(problem, np.atleast_2d(X)), axis=0)
     F, G = _evaluate_base(problem, X)
     feasible = np.all(G <= 0.0, axis=1)
@@ -341,9 +372,17 @@ def _front(problem: Problem, X: np.ndarray, *, algo: str, n_evaluations: int, t0
     std = None
     if isinstance(problem, HevProblem):
         F, std = problem.predict(X)
-    return Front(algo=algo, X=X, F=F, std=std, n_evaluations=int(n_evaluations),
-                 runtime_s=time.perf_counter() - t0, n_candidates=len(feasible),
-                 n_infeasible=int(np.count_nonzero(~feasible)), settings=settings)
+    return Front(
+        algo=algo,
+        X=X,
+        F=F,
+        std=std,
+        n_evaluations=int(n_evaluations),
+        runtime_s=time.perf_counter() - t0,
+        n_candidates=len(feasible),
+        n_infeasible=int(np.count_nonzero(~feasible)),
+        settings=settings,
+    )
 
 
 # ------------------------------------------------------------------------------------- algorithms
@@ -364,8 +403,14 @@ def nsga3(problem: Problem, settings: AlgoParams, progress=None) -> Front:
     pop_size = max(settings.pop_size, len(ref))
     algorithm = NSGA3(ref, pop_size=pop_size, eliminate_duplicates=True, **_operators(problem, settings))
     res = run(problem, algorithm, settings.n_gen, settings.seed, progress)
-    return _front(problem, res.pop.get("X"), algo="nsga3", n_evaluations=res.algorithm.evaluator.n_eval,
-                  t0=t0, settings={"pop_size": pop_size, "n_ref_dirs": len(ref), "ref_dirs": "das-dennis layers"})
+    return _front(
+        problem,
+        res.pop.get("X"),
+        algo="nsga3",
+        n_evaluations=res.algorithm.evaluator.n_eval,
+        t0=t0,
+        settings={"pop_size": pop_size, "n_ref_dirs": len(ref), "ref_dirs": "das-dennis layers"},
+    )
 
 
 def moead(problem: Problem, settings: AlgoParams, progress=None) -> Front:
@@ -385,20 +430,32 @@ def moead(problem: Problem, settings: AlgoParams, progress=None) -> Front:
       designs of the final population are dropped from the front and counted (``n_infeasible``).
     """
     if settings.n_neighbors > settings.pop_size:
-        raise ValueError(f"optimise.algorithms.moead.n_neighbors: {settings.n_neighbors} exceeds pop_size "
-                         f"{settings.pop_size}")
+        raise ValueError(
+            f"optimise.algorithms.moead.n_neighbors: {settings.n_neighbors} exceeds pop_size {settings.pop_size}"
+        )
     t0 = time.perf_counter()
     norm = _settings_normalisation(problem, settings)
     ref = reference_directions(problem.n_obj, n_points=settings.pop_size, seed=settings.seed)
     decomposition = PBI() if settings.decomposition == "pbi" else Tchebicheff()
-    algorithm = ParallelMOEAD(ref, n_neighbors=settings.n_neighbors, decomposition=decomposition,
-                              **_operators(problem, settings))
-    res = run(_Reformulated(problem, norm, penalty=settings.penalty), algorithm, settings.n_gen, settings.seed,
-              progress)
-    return _front(problem, res.pop.get("X"), algo="moead",
-                  n_evaluations=res.algorithm.evaluator.n_eval + settings.norm_samples, t0=t0,
-                  settings={"pop_size": len(ref), "n_ref_dirs": len(ref), "ref_dirs": "riesz energy",
-                            "normalisation": norm.to_dict()})
+    algorithm = ParallelMOEAD(
+        ref, n_neighbors=settings.n_neighbors, decomposition=decomposition, **_operators(problem, settings)
+    )
+    res = run(
+        _Reformulated(problem, norm, penalty=settings.penalty), algorithm, settings.n_gen, settings.seed, progress
+    )
+    return _front(
+        problem,
+        res.pop.get("X"),
+        algo="moead",
+        n_evaluations=res.algorithm.evaluator.n_eval + settings.norm_samples,
+        t0=t0,
+        settings={
+            "pop_size": len(ref),
+            "n_ref_dirs": len(ref),
+            "ref_dirs": "riesz energy",
+            "normalisation": norm.to_dict(),
+        },
+    )
 
 
 def weighted_sum_ranks(F: np.ndarray, cv: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -462,21 +519,37 @@ def moga(problem: Problem, settings: AlgoParams, progress=None) -> Front:
       non-dominated and distinct (weighted sums find supported points only: at most ``n_weights``).
     """
     if settings.n_weights > settings.pop_size:
-        raise ValueError(f"optimise.algorithms.moga.n_weights: {settings.n_weights} exceeds pop_size "
-                         f"{settings.pop_size}")
+        raise ValueError(
+            f"optimise.algorithms.moga.n_weights: {settings.n_weights} exceeds pop_size {settings.pop_size}"
+        )
     t0 = time.perf_counter()
     norm = _settings_normalisation(problem, settings)
     weights = reference_directions(problem.n_obj, n_points=settings.n_weights, seed=settings.seed)
-    algorithm = GeneticAlgorithm(pop_size=settings.pop_size, selection=TournamentSelection(func_comp=_by_score),
-                                 survival=_WeightedSumSurvival(weights), eliminate_duplicates=True,
-                                 advance_after_initial_infill=True, **_operators(problem, settings))
+    algorithm = GeneticAlgorithm(
+        pop_size=settings.pop_size,
+        selection=TournamentSelection(func_comp=_by_score),
+        survival=_WeightedSumSurvival(weights),
+        eliminate_duplicates=True,
+        advance_after_initial_infill=True,
+        **_operators(problem, settings),
+    )
     res = run(_Reformulated(problem, norm), algorithm, settings.n_gen, settings.seed, progress)
     pop = res.pop
     R = weighted_sum_ranks(pop.get("F"), pop.get("CV")[:, 0], weights)
     best = pop.get("X")[np.argmin(R, axis=0)]
-    return _front(problem, best, algo="moga", n_evaluations=res.algorithm.evaluator.n_eval + settings.norm_samples,
-                  t0=t0, settings={"pop_size": settings.pop_size, "n_weights": len(weights),
-                                   "weights": "riesz energy", "normalisation": norm.to_dict()})
+    return _front(
+        problem,
+        best,
+        algo="moga",
+        n_evaluations=res.algorithm.evaluator.n_eval + settings.norm_samples,
+        t0=t0,
+        settings={
+            "pop_size": settings.pop_size,
+            "n_weights": len(weights),
+            "weights": "riesz energy",
+            "normalisation": norm.to_dict(),
+        },
+    )
 
 
 _WRAPPERS: dict[str, Callable[..., Front]] = {"nsga3": nsga3, "moead": moead, "moga": moga}
@@ -499,8 +572,9 @@ def _torch_single_thread():
         torch.set_num_threads(before)
 
 
-def optimise(problem: Problem, algo: str, settings: AlgoParams,
-             progress: Callable[[int, int], None] | None = None) -> Front:
+def optimise(
+    problem: Problem, algo: str, settings: AlgoParams, progress: Callable[[int, int], None] | None = None
+) -> Front:
     """Run algorithm ``algo`` (one of :data:`ALGORITHMS`) on ``problem`` with ``settings``;
     ``progress(generation, n_gen)`` after each generation."""
     if algo not in _WRAPPERS:
@@ -542,14 +616,19 @@ def resimulate(X: np.ndarray, simulate: Callable[[np.ndarray], pd.DataFrame]) ->
 
 def front_schema(with_std: bool) -> pa.Schema:
     """``data/pareto/<algo>.parquet``: design, pred_/pred_*_std/sim_ objectives, exact mass, flags."""
-    fields = [pa.field(v, pa.int64() if m else pa.float64(), nullable=False)
-              for v, m in zip(DESIGN_VARS, INTEGER_MASK, strict=True)]
+    fields = [
+        pa.field(v, pa.int64() if m else pa.float64(), nullable=False)
+        for v, m in zip(DESIGN_VARS, INTEGER_MASK, strict=True)
+    ]
     fields += [pa.field(f"pred_{k}", pa.float64()) for k in OBJECTIVES]
     if with_std:
         fields += [pa.field(f"pred_{k}_std", pa.float64()) for k in OBJECTIVES]
     fields += [pa.field(f"sim_{k}", pa.bool_() if k in BOOL_RESPONSES else pa.float64()) for k in RESPONSES]
-    fields += [pa.field("m_veh_exact_kg", pa.float64()), pa.field("feasible", pa.bool_()),
-               pa.field("nondominated_sim", pa.bool_())]
+    fields += [
+        pa.field("m_veh_exact_kg", pa.float64()),
+        pa.field("feasible", pa.bool_()),
+        pa.field("nondominated_sim", pa.bool_()),
+    ]
     return pa.schema(fields)
 
 
@@ -594,17 +673,21 @@ def surrogate_error(pred: np.ndarray, sim: np.ndarray, span: np.ndarray | None =
             continue
         e = p - s
         ss_tot = float(np.sum((s - s.mean()) ** 2))
-        rmse = float(np.sqrt(np.mean(e ** 2)))
-        out[name] = {"mae": float(np.mean(np.abs(e))), "rmse": rmse,
-                     "r2": 1.0 - float(np.sum(e ** 2)) / ss_tot if ss_tot > 0 else None,
-                     "bias": float(np.mean(e))}
+        rmse = float(np.sqrt(np.mean(e**2)))
+        out[name] = {
+            "mae": float(np.mean(np.abs(e))),
+            "rmse": rmse,
+            "r2": 1.0 - float(np.sum(e**2)) / ss_tot if ss_tot > 0 else None,
+            "bias": float(np.mean(e)),
+        }
         if span is not None:
             out[name]["nrmse"] = rmse / float(span[k])
     return out
 
 
-def front_report(front: Front, table: pd.DataFrame, hv: HvSettings, *, settings: AlgoParams,
-                 n_misleading: int = 3) -> dict:
+def front_report(
+    front: Front, table: pd.DataFrame, hv: HvSettings, *, settings: AlgoParams, n_misleading: int = 3
+) -> dict:
     """``reports/optimise_<algo>.json``: the figures of the issue's contract plus the settings used.
 
     Deterministic (a DVC metric: the same inputs give the same bytes); wall times are not in it but in
@@ -612,13 +695,14 @@ def front_report(front: Front, table: pd.DataFrame, hv: HvSettings, *, settings:
     sim_Y = table[[f"sim_{k}" for k in OBJECTIVES]].to_numpy(dtype=float)
     pred_Y = table[[f"pred_{k}" for k in OBJECTIVES]].to_numpy(dtype=float)
     finite = np.all(np.isfinite(sim_Y), axis=1)
-    hv_est, hv_se = hypervolume_mc(hv.norm(to_minimisation(sim_Y[finite])), hv.reference,
-                                   n_samples=hv.n_samples, seed=hv.seed)
-    hv_pred, hv_pred_se = hypervolume_mc(hv.norm(to_minimisation(pred_Y)), hv.reference,
-                                         n_samples=hv.n_samples, seed=hv.seed)
+    hv_est, hv_se = hypervolume_mc(
+        hv.norm(to_minimisation(sim_Y[finite])), hv.reference, n_samples=hv.n_samples, seed=hv.seed
+    )
+    hv_pred, hv_pred_se = hypervolume_mc(
+        hv.norm(to_minimisation(pred_Y)), hv.reference, n_samples=hv.n_samples, seed=hv.seed
+    )
     errors = surrogate_error(pred_Y, sim_Y, hv.norm.span)
-    ranked = sorted((k for k in OBJECTIVES if errors[k].get("nrmse") is not None),
-                    key=lambda k: -errors[k]["nrmse"])
+    ranked = sorted((k for k in OBJECTIVES if errors[k].get("nrmse") is not None), key=lambda k: -errors[k]["nrmse"])
     n = len(table)
     return {
         "algo": front.algo,
@@ -640,7 +724,10 @@ def front_report(front: Front, table: pd.DataFrame, hv: HvSettings, *, settings:
         "hypervolume_settings": {
             "space": "simulated objectives, minimisation form, (F - ideal) / (nadir - ideal)",
             "normalisation": "ideal/nadir of the simulated DOE and held-out designs (shared by all algorithms)",
-            "reference": hv.reference, "n_samples": hv.n_samples, "seed": hv.seed, **hv.norm.to_dict(),
+            "reference": hv.reference,
+            "n_samples": hv.n_samples,
+            "seed": hv.seed,
+            **hv.norm.to_dict(),
         },
         "settings": {**settings.model_dump(), **front.settings},
     }
@@ -648,8 +735,12 @@ def front_report(front: Front, table: pd.DataFrame, hv: HvSettings, *, settings:
 
 def runtimes(front: Front, resim_runtime_s: float) -> dict:
     """Wall times of one optimise run (s): machine-dependent, so kept out of the metrics report."""
-    return {"algo": front.algo, "runtime_s": front.runtime_s, "runtime_resim_s": resim_runtime_s,
-            "runtime_total_s": front.runtime_s + resim_runtime_s}
+    return {
+        "algo": front.algo,
+        "runtime_s": front.runtime_s,
+        "runtime_resim_s": resim_runtime_s,
+        "runtime_total_s": front.runtime_s + resim_runtime_s,
+    }
 
 
 @dataclass(frozen=True)
@@ -664,9 +755,14 @@ class StudyResult:
         return front_schema(self.front.std is not None)
 
 
-def optimise_and_resimulate(problem: HevProblem, algo: str, settings: AlgoParams,
-                            simulate: Callable[[np.ndarray], pd.DataFrame], hv: HvSettings,
-                            progress: Callable[[int, int], None] | None = None) -> StudyResult:
+def optimise_and_resimulate(
+    problem: HevProblem,
+    algo: str,
+    settings: AlgoParams,
+    simulate: Callable[[np.ndarray], pd.DataFrame],
+    hv: HvSettings,
+    progress: Callable[[int, int], None] | None = None,
+) -> StudyResult:
     """The optimise stage's work: front on the surrogate, every design re-simulated, table and report."""
     front = optimise(problem, algo, settings, progress)
     t0 = time.perf_counter()
@@ -693,9 +789,28 @@ def drop_stalled(front: Front, sim: pd.DataFrame) -> tuple[Front, pd.DataFrame, 
 
 
 __all__ = [
-    "ALGORITHMS", "Front", "HevProblem", "HvSettings", "IntegerRepair", "StudyResult", "doe_normalisation",
-    "drop_stalled", "estimate_normalisation", "front_report", "front_schema", "front_table", "moead", "moga", "nsga3",
-    "optimise", "optimise_and_resimulate", "reference_directions", "resimulate", "run", "runtimes", "surrogate_error",
+    "ALGORITHMS",
+    "Front",
+    "HevProblem",
+    "HvSettings",
+    "IntegerRepair",
+    "StudyResult",
+    "doe_normalisation",
+    "drop_stalled",
+    "estimate_normalisation",
+    "front_report",
+    "front_schema",
+    "front_table",
+    "moead",
+    "moga",
+    "nsga3",
+    "optimise",
+    "optimise_and_resimulate",
+    "reference_directions",
+    "resimulate",
+    "run",
+    "runtimes",
+    "surrogate_error",
     "to_minimisation",
     "weighted_sum_ranks",
 ]

@@ -109,8 +109,8 @@ class BaselineParams(_Strict):
 
 # --------------------------------------------------------------------------------------- simulation
 class SimParams(_Strict):
-    soc_init: Frac = 0.7                # ADVISOR's initial SOC
-    soc_min: Frac = 0.45                # PTC_PRIUS_JPN SOC window
+    soc_init: Frac = 0.7  # ADVISOR's initial SOC
+    soc_min: Frac = 0.45  # PTC_PRIUS_JPN SOC window
     soc_max: Frac = 0.75
     adhesion_coefficient: Annotated[float, Field(gt=0, le=1.5)] = 0.9
     planetary_efficiency: Annotated[float, Field(gt=0.8, le=1.0)] = 0.98
@@ -119,8 +119,8 @@ class SimParams(_Strict):
     perf_dt_s: Annotated[float, Field(gt=0, le=1)] = 0.1
     perf_max_time_s: Annotated[float, Field(gt=10, le=300)] = 60.0
     cycle_met_tolerance_kmh: Annotated[float, Field(gt=0, le=50)] = 3.2
-    stall_time_s: Annotated[float, Field(gt=0, le=3600)] = 10.0        # stood still this long while asked to move
-    min_distance_share: Annotated[float, Field(gt=0, le=1)] = 0.1      # per-km figures below: failure ceiling
+    stall_time_s: Annotated[float, Field(gt=0, le=3600)] = 10.0  # stood still this long while asked to move
+    min_distance_share: Annotated[float, Field(gt=0, le=1)] = 0.1  # per-km figures below: failure ceiling
 
     @model_validator(mode="after")
     def _window(self):
@@ -191,8 +191,8 @@ class DoeParams(_Strict):
     """Designs simulated for the surrogates (SPEC 6): the study's L27 array, a seeded LHS, or both."""
 
     method: Literal["l27", "lhs", "both"] = "l27"
-    n_lhs: Annotated[int, Field(ge=1, le=1_000_000)] = 300     # Latin-hypercube designs (lhs, both)
-    seed: Seed = 42                                            # seed of the Latin hypercube
+    n_lhs: Annotated[int, Field(ge=1, le=1_000_000)] = 300  # Latin-hypercube designs (lhs, both)
+    seed: Seed = 42  # seed of the Latin hypercube
     batch_size: Annotated[int, Field(ge=1, le=100_000)] = 1000  # designs per simulator batch
     l27_file: str = "data/raw/paper/l27_assignment.csv"
 
@@ -202,11 +202,11 @@ class BnnParams(_Strict):
     """Bayesian-regularised MLP (SPEC 7; study: lr 0.01, error goal 1e-10, up to 3500 epochs)."""
 
     hidden: Annotated[list[Annotated[int, Field(ge=1, le=512)]], Field(min_length=1, max_length=8)] = [20]
-    lr: Pos = 0.01                                            # Adam learning rate
+    lr: Pos = 0.01  # Adam learning rate
     max_epochs: Annotated[int, Field(ge=1, le=100_000)] = 3500
-    error_goal: NonNeg = 1e-10                                # stop when the standardised train MSE is below
+    error_goal: NonNeg = 1e-10  # stop when the standardised train MSE is below
     evidence_every: Annotated[int, Field(ge=1, le=100_000)] = 10  # epochs between alpha/beta re-estimations
-    seed: Seed = 0                                            # weight initialisation
+    seed: Seed = 0  # weight initialisation
     # objectives fitted as log(y + c) (heavy-tailed per-km figures); see hevlib/surrogates/transform.py
     log_targets: list[str] = ["fc", "hc", "co", "nox"]
 
@@ -227,7 +227,7 @@ class HeldoutParams(_Strict):
 
 class SurrogateParams(_Strict):
     train_fraction: Annotated[float, Field(gt=0, lt=1)] = 0.7  # DOE share both surrogates are fitted on
-    split_seed: Seed = 0                                        # seed of the train/test split
+    split_seed: Seed = 0  # seed of the train/test split
     bnn: BnnParams = BnnParams()
     heldout: HeldoutParams = HeldoutParams()
 
@@ -238,25 +238,27 @@ class AlgoParams(_Strict):
 
     pop_size: Annotated[int, Field(ge=4, le=100_000)] = 200
     n_gen: Annotated[int, Field(ge=1, le=100_000)] = 500
-    crossover_prob: Frac = 0.6              # SBX probability per mating
-    mutation_prob: Frac = 0.05              # polynomial-mutation probability per variable
+    crossover_prob: Frac = 0.6  # SBX probability per mating
+    mutation_prob: Frac = 0.05  # polynomial-mutation probability per variable
     seed: Seed = 1
     surrogate: Literal["bnn", "regression"] = "bnn"
     # algorithm-specific knobs; unused ones must keep their defaults
-    ref_dirs_partitions: Annotated[list[Annotated[int, Field(ge=1, le=20)]],
-                                   Field(min_length=1, max_length=3)] = [2, 1]   # nsga3: Das-Dennis layers
-    n_neighbors: Annotated[int, Field(ge=2, le=1000)] = 20      # moead
-    decomposition: Literal["tchebicheff", "pbi"] = "pbi"        # moead
-    penalty: NonNeg = 1000.0                                    # moead: per unit relative mass excess
-    n_weights: Annotated[int, Field(ge=1, le=10_000)] = 50      # moga: weight vectors (one GA each)
+    ref_dirs_partitions: Annotated[list[Annotated[int, Field(ge=1, le=20)]], Field(min_length=1, max_length=3)] = [
+        2,
+        1,
+    ]  # nsga3: Das-Dennis layers
+    n_neighbors: Annotated[int, Field(ge=2, le=1000)] = 20  # moead
+    decomposition: Literal["tchebicheff", "pbi"] = "pbi"  # moead
+    penalty: NonNeg = 1000.0  # moead: per unit relative mass excess
+    n_weights: Annotated[int, Field(ge=1, le=10_000)] = 50  # moga: weight vectors (one GA each)
     norm_samples: Annotated[int, Field(ge=2, le=1_000_000)] = 2000  # moead, moga: designs for ideal/nadir
 
 
 class OptimiseParams(_Strict):
     hv_samples: Annotated[int, Field(ge=100, le=10_000_000)] = 200_000
     hv_seed: Seed = 7
-    hv_reference: Annotated[float, Field(gt=0, le=10)] = 1.1   # reference point, DOE-normalised units
-    apply_screen_rules: bool = True     # the screen's rules (switched on there) as optimiser constraints
+    hv_reference: Annotated[float, Field(gt=0, le=10)] = 1.1  # reference point, DOE-normalised units
+    apply_screen_rules: bool = True  # the screen's rules (switched on there) as optimiser constraints
     algorithms: dict[Literal["nsga3", "moead", "moga"], AlgoParams]
 
 
@@ -264,10 +266,10 @@ class OptimiseParams(_Strict):
 class ScreenParams(_Strict):
     """Screening of the merged non-dominated designs, ranking, and the pick for validation (SPEC 9)."""
 
-    gen_below_motor: bool = True            # rule p_gen_kw < p_mot_kw (reported even when off)
-    speed_dev_max: Frac = 0.4               # rule sim_speed_dev (share of the cycle off the trace) <= this
-    mass_max_kg: Pos = 1195.0               # rule sim_m_veh <= this
-    buildable_gear_set: bool = True         # rule hevlib.design.gear_set_buildable (reported even when off)
+    gen_below_motor: bool = True  # rule p_gen_kw < p_mot_kw (reported even when off)
+    speed_dev_max: Frac = 0.4  # rule sim_speed_dev (share of the cycle off the trace) <= this
+    mass_max_kg: Pos = 1195.0  # rule sim_m_veh <= this
+    buildable_gear_set: bool = True  # rule hevlib.design.gear_set_buildable (reported even when off)
     n_keep: Annotated[int, Field(ge=1, le=1_000_000)] = 78
     n_pick: Annotated[int, Field(ge=1, le=1_000_000)] = 15
     pick: Literal["random", "diverse"] = "random"
@@ -314,14 +316,14 @@ def _format_error(err: ValidationError, source: str = "params.yaml") -> str:
     first = err.errors()[0]
     parts = [str(p) for p in first["loc"] if p not in ("function-after",)]
     msg = first["msg"]
-    if parts and parts[-1] == "[key]":   # a mapping key failed its pattern (e.g. a cycle name)
+    if parts and parts[-1] == "[key]":  # a mapping key failed its pattern (e.g. a cycle name)
         parts.pop()
         msg = f"invalid key name ({msg[0].lower()}{msg[1:]})"
     loc = ".".join(parts)
     if first["type"] == "extra_forbidden":
         msg = "unknown key"
     elif msg.startswith("Value error, "):
-        msg = msg[len("Value error, "):]
+        msg = msg[len("Value error, ") :]
         head, sep, rest = msg.partition(": ")
         if sep and head.isidentifier():  # a model check naming its own field: fold into the key path
             loc, msg = (f"{loc}.{head}" if loc else head), rest

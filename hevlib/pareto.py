@@ -51,10 +51,10 @@ def nondominated_mask(F: np.ndarray) -> np.ndarray:
     n = F.shape[0]
     keep = np.ones(n, dtype=bool)
     for start in range(0, n, 512):  # blocks keep memory at O(512 * n * m)
-        block = F[start:start + 512]
+        block = F[start : start + 512]
         le = np.all(F[None, :, :] <= block[:, None, :], axis=2)
         lt = np.any(F[None, :, :] < block[:, None, :], axis=2)
-        keep[start:start + 512] = ~np.any(le & lt, axis=1)
+        keep[start : start + 512] = ~np.any(le & lt, axis=1)
     return keep
 
 
@@ -69,8 +69,9 @@ def to_minimisation(Y: np.ndarray, objectives: Sequence[str] = OBJECTIVES) -> np
     return np.asarray(Y, dtype=float) * sense_of(objectives)
 
 
-def objective_matrix(table: pd.DataFrame, objectives: Sequence[str] = OBJECTIVES, *,
-                     prefix: str = SIM, what: str = "designs") -> np.ndarray:
+def objective_matrix(
+    table: pd.DataFrame, objectives: Sequence[str] = OBJECTIVES, *, prefix: str = SIM, what: str = "designs"
+) -> np.ndarray:
     """The (n, m) matrix of ``<prefix><objective>`` columns in minimisation form (maximised ones negated)."""
     cols = [f"{prefix}{k}" for k in objectives]
     missing = [c for c in cols if c not in table.columns]
@@ -168,23 +169,36 @@ class ScreenRule:
 def screening_rules(screen) -> list[ScreenRule]:
     """The rules of ``params.screen`` (:class:`hevlib.params.ScreenParams`), in the order they are applied."""
     return [
-        ScreenRule("gen_below_motor", bool(screen.gen_below_motor), "p_gen_kw < p_mot_kw",
-                   rule_gen_below_motor),
-        ScreenRule("not_stalled", True, "not sim_stalled (stood still while the sizing cycle asked to move)",
-                   rule_not_stalled),
-        ScreenRule("speed_dev_max", True,
-                   f"sim_speed_dev <= {screen.speed_dev_max:g} (share of the cycle off the trace)",
-                   lambda t: rule_speed_dev(t, screen.speed_dev_max), float(screen.speed_dev_max)),
-        ScreenRule("mass_max", True, f"sim_m_veh <= {screen.mass_max_kg:g} kg",
-                   lambda t: rule_mass(t, screen.mass_max_kg), float(screen.mass_max_kg)),
-        ScreenRule("buildable_gear_set", bool(screen.buildable_gear_set),
-                   "planet teeth (n_r-n_s)/2 whole and >= 9, (n_r+n_s) divisible by 4",
-                   rule_buildable_gear_set),
+        ScreenRule("gen_below_motor", bool(screen.gen_below_motor), "p_gen_kw < p_mot_kw", rule_gen_below_motor),
+        ScreenRule(
+            "not_stalled", True, "not sim_stalled (stood still while the sizing cycle asked to move)", rule_not_stalled
+        ),
+        ScreenRule(
+            "speed_dev_max",
+            True,
+            f"sim_speed_dev <= {screen.speed_dev_max:g} (share of the cycle off the trace)",
+            lambda t: rule_speed_dev(t, screen.speed_dev_max),
+            float(screen.speed_dev_max),
+        ),
+        ScreenRule(
+            "mass_max",
+            True,
+            f"sim_m_veh <= {screen.mass_max_kg:g} kg",
+            lambda t: rule_mass(t, screen.mass_max_kg),
+            float(screen.mass_max_kg),
+        ),
+        ScreenRule(
+            "buildable_gear_set",
+            bool(screen.buildable_gear_set),
+            "planet teeth (n_r-n_s)/2 whole and >= 9, (n_r+n_s) divisible by 4",
+            rule_buildable_gear_set,
+        ),
     ]
 
 
-def apply_screening(table: pd.DataFrame, rules: Sequence[ScreenRule],
-                    candidates: np.ndarray | None = None) -> tuple[np.ndarray, dict[str, np.ndarray], dict]:
+def apply_screening(
+    table: pd.DataFrame, rules: Sequence[ScreenRule], candidates: np.ndarray | None = None
+) -> tuple[np.ndarray, dict[str, np.ndarray], dict]:
     """Evaluate every rule on ``table``; return (feasible mask, {name: pass mask}, report).
 
     ``candidates`` (default: all rows) are the designs being screened; the report counts, among them,
@@ -200,9 +214,14 @@ def apply_screening(table: pd.DataFrame, rules: Sequence[ScreenRule],
         removed = int(np.sum(alive & ~ok)) if rule.enabled else 0
         if rule.enabled:
             alive &= ok
-        report[rule.name] = {"enabled": rule.enabled, "rule": rule.description, "limit": rule.limit,
-                             "fails_alone": int(np.sum(cand & ~ok)), "removed_in_sequence": removed,
-                             "remaining_after": int(alive.sum())}
+        report[rule.name] = {
+            "enabled": rule.enabled,
+            "rule": rule.description,
+            "limit": rule.limit,
+            "fails_alone": int(np.sum(cand & ~ok)),
+            "removed_in_sequence": removed,
+            "remaining_after": int(alive.sum()),
+        }
     return alive, masks, report
 
 
@@ -277,8 +296,7 @@ def _count(algos: pd.Series, names: Sequence[str]) -> dict[str, int]:
     return {a: int(sum(a in algo_names(s) for s in algos)) for a in names}
 
 
-def select_designs(fronts: Mapping[str, pd.DataFrame], screen,
-                   objectives: Sequence[str] = OBJECTIVES) -> ParetoResult:
+def select_designs(fronts: Mapping[str, pd.DataFrame], screen, objectives: Sequence[str] = OBJECTIVES) -> ParetoResult:
     """Merge, filter, screen, rank, keep and pick (module docstring); ``screen`` is ``params.screen``."""
     names = list(fronts)
     n_in = {a: len(f) for a, f in fronts.items()}
@@ -316,9 +334,16 @@ def select_designs(fronts: Mapping[str, pd.DataFrame], screen,
     merged["kept"] = kept
     merged["picked"] = picked
 
-    sel_cols = ["design_id", "algo", "sources", "rank", "ideal_distance", *DESIGN_VARS,
-                *[f"{SIM}{k}" for k in objectives],
-                *[c for c in merged.columns if c.startswith(PRED)]]
+    sel_cols = [
+        "design_id",
+        "algo",
+        "sources",
+        "rank",
+        "ideal_distance",
+        *DESIGN_VARS,
+        *[f"{SIM}{k}" for k in objectives],
+        *[c for c in merged.columns if c.startswith(PRED)],
+    ]
     selected = merged.loc[picked, sel_cols].sort_values("rank", kind="stable").reset_index(drop=True)
 
     notes = []
@@ -339,19 +364,27 @@ def select_designs(fronts: Mapping[str, pd.DataFrame], screen,
             "picked": int(picked.sum()),
         },
         "screen": rule_report,
-        "by_algo": {a: {"input": n_in[a],
-                        "merged": _count(merged["algo"], names)[a],
-                        "nondominated": _count(merged.loc[nondom, "algo"], names)[a],
-                        "feasible": _count(merged.loc[feasible, "algo"], names)[a],
-                        "kept": _count(merged.loc[kept, "algo"], names)[a],
-                        "picked": _count(merged.loc[picked, "algo"], names)[a]} for a in names},
+        "by_algo": {
+            a: {
+                "input": n_in[a],
+                "merged": _count(merged["algo"], names)[a],
+                "nondominated": _count(merged.loc[nondom, "algo"], names)[a],
+                "feasible": _count(merged.loc[feasible, "algo"], names)[a],
+                "kept": _count(merged.loc[kept, "algo"], names)[a],
+                "picked": _count(merged.loc[picked, "algo"], names)[a],
+            }
+            for a in names
+        },
         "shared_designs": int((merged["n_sources"] > 1).sum()),
         "kept_share": _share(merged.loc[kept, "algo"], names),
         "picked_share": _share(merged.loc[picked, "algo"], names),
-        "selection": {"rank_rule": "euclidean distance to the ideal point, objectives min-max normalised "
-                                   "over the feasible set",
-                      "n_keep": int(screen.n_keep), "n_pick": int(screen.n_pick), "pick": screen.pick,
-                      "seed": int(screen.seed) if screen.pick == "random" else None},
+        "selection": {
+            "rank_rule": "euclidean distance to the ideal point, objectives min-max normalised over the feasible set",
+            "n_keep": int(screen.n_keep),
+            "n_pick": int(screen.n_pick),
+            "pick": screen.pick,
+            "seed": int(screen.seed) if screen.pick == "random" else None,
+        },
         "notes": notes,
     }
     return ParetoResult(merged=merged, selected=selected, summary=summary)
@@ -376,8 +409,28 @@ def table_schema(table: pd.DataFrame) -> pa.Schema:
 
 
 __all__ = [
-    "nondominated_mask", "sense_of", "objective_matrix", "merge_fronts", "algo_names",
-    "rule_gen_below_motor", "rule_not_stalled", "rule_speed_dev", "rule_mass", "rule_buildable_gear_set", "ScreenRule",
-    "screening_rules", "apply_screening", "normalise", "ideal_distance", "rank_by", "pick_random",
-    "pick_diverse", "ParetoResult", "select_designs", "table_schema", "SIM", "PRED", "FRONT_FLAGS",
+    "nondominated_mask",
+    "sense_of",
+    "objective_matrix",
+    "merge_fronts",
+    "algo_names",
+    "rule_gen_below_motor",
+    "rule_not_stalled",
+    "rule_speed_dev",
+    "rule_mass",
+    "rule_buildable_gear_set",
+    "ScreenRule",
+    "screening_rules",
+    "apply_screening",
+    "normalise",
+    "ideal_distance",
+    "rank_by",
+    "pick_random",
+    "pick_diverse",
+    "ParetoResult",
+    "select_designs",
+    "table_schema",
+    "SIM",
+    "PRED",
+    "FRONT_FLAGS",
 ]

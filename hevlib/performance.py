@@ -71,8 +71,11 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
     """kind 0: power-split hybrid, 1: conventional. Returns (f_max, t_0_100_s, v_max_kmh)."""
     d = split_design(row, c)
     m = row[R_MASS]
-    ch = chassis(m, split_equivalent_mass_kg(row, c) if kind == 0 else
-                 conventional_equivalent_mass_kg(m, 0.0, False, cd.s_eng, c), c)
+    ch = chassis(
+        m,
+        split_equivalent_mass_kg(row, c) if kind == 0 else conventional_equivalent_mass_kg(m, 0.0, False, cd.s_eng, c),
+        c,
+    )
     if kind == 0:
         p_dis, p_chg = pack_limits(c.soc_init, row[R_N_BAT], c, B)
         v_lim = split_speed_limit(d)
@@ -91,7 +94,7 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
             v_avg = 0.0
             for g in range(ratios.shape[0]):
                 st_c = conv.dispatch(v, f_cmd, ratios[g], cd, E)
-                engaged = v / cd.r * ratios[g] >= cd.w_launch         # clutch closed: the engine is reflected
+                engaged = v / cd.r * ratios[g] >= cd.w_launch  # clutch closed: the engine is reflected
                 ch_g = chassis(m, conventional_equivalent_mass_kg(m, ratios[g], engaged, cd.s_eng, c), c)
                 v_avg = max(v_avg, _limited_conv(v, v, v_lim, f_cmd, ratios[g], 0.0, 1.0, dt, st_c, cd, ch_g, E)[2])
         v_next = min(max(2.0 * v_avg - v, 0.0), v_lim)
@@ -123,8 +126,19 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
 
 
 @njit(cache=True, parallel=True)
-def performance_batch(kind: int, rows: np.ndarray, c: DriveConfig, ratios: np.ndarray, cd: conv.ConvDesign,
-                      E: EngineArrays, M: MachineArrays, G: MachineArrays, B, dt: float, t_max: float) -> np.ndarray:
+def performance_batch(
+    kind: int,
+    rows: np.ndarray,
+    c: DriveConfig,
+    ratios: np.ndarray,
+    cd: conv.ConvDesign,
+    E: EngineArrays,
+    M: MachineArrays,
+    G: MachineArrays,
+    B,
+    dt: float,
+    t_max: float,
+) -> np.ndarray:
     """(n, 3) array of f_max (m/s^2), t_0_100_s, v_max (km/h) for every design row."""
     out = np.empty((rows.shape[0], 3))
     for i in prange(rows.shape[0]):

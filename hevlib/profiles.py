@@ -25,7 +25,7 @@ def apply_overrides(params: dict, overrides: dict) -> dict:
         node, parts = out, str(dotted).split(".")
         for i, part in enumerate(parts[:-1]):
             if not isinstance(node, dict) or part not in node:
-                raise ParamsError(f"profile: {'.'.join(parts[:i + 1])}: no such params key")
+                raise ParamsError(f"profile: {'.'.join(parts[: i + 1])}: no such params key")
             node = node[part]
         if not isinstance(node, dict) or parts[-1] not in node:
             raise ParamsError(f"profile: {dotted}: no such params key")
@@ -39,8 +39,7 @@ def load_profile(name: str, params_path: str | Path = "params.yaml", profiles_di
     if not path.exists():
         known = sorted(p.stem for p in Path(profiles_dir).glob("*.yaml"))
         raise FileNotFoundError(f"{path}: no such profile (known: {', '.join(known) or 'none'})")
-    overrides = read_yaml_mapping(path, what="profile (dotted params keys to values)", error=ParamsError,
-                                  empty_ok=True)
+    overrides = read_yaml_mapping(path, what="profile (dotted params keys to values)", error=ParamsError, empty_ok=True)
     base = read_yaml_mapping(params_path, what="params file", error=ParamsError, missing_error=ParamsError)
     parse_params(apply_overrides(base, overrides))
     return overrides

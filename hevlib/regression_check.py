@@ -134,10 +134,21 @@ def table(rows: list[Row], *, all_rows: bool = False) -> str:
     """A ``dvc metrics diff``-style table: guarded metrics (and changed unguarded ones, or all)."""
     shown = [r for r in rows if all_rows or r.rule is not None or (r.change not in (None, 0.0)) or r.old != r.new]
     head = ("Path", "Metric", "Old", "New", "Change", "Tolerance", "Status")
-    body = [(r.file, r.key, _fmt(r.old), _fmt(r.new), _fmt(r.change),
-             r.rule.describe() if r.rule else "-", ("ok" if r.ok else "REGRESSION") if r.rule else "unguarded")
-            for r in shown]
+    body = [
+        (
+            r.file,
+            r.key,
+            _fmt(r.old),
+            _fmt(r.new),
+            _fmt(r.change),
+            r.rule.describe() if r.rule else "-",
+            ("ok" if r.ok else "REGRESSION") if r.rule else "unguarded",
+        )
+        for r in shown
+    ]
     widths = [max(len(str(x)) for x in col) for col in zip(head, *body, strict=False)]
     line = "  ".join
-    return "\n".join([line(h.ljust(w) for h, w in zip(head, widths, strict=True))]
-                     + [line(c.ljust(w) for c, w in zip(row, widths, strict=True)) for row in body])
+    return "\n".join(
+        [line(h.ljust(w) for h, w in zip(head, widths, strict=True))]
+        + [line(c.ljust(w) for c, w in zip(row, widths, strict=True)) for row in body]
+    )

@@ -15,8 +15,11 @@ from hevlib.design import DESIGN_VARS, OBJECTIVE_UNITS
 from hevlib.validation import ALL, BASELINE_ALGO, IMPROVEMENT_RESPONSES, SOC_POINTS
 
 #: The study's headline against the conventional car on FTP (SPEC section 1).
-STUDY_HEADLINE = {"engine downsizing": "about 40 % (70 kW to about 42 kW)", "m_veh": "about 4 % lower",
-                  "fc": "36-46 % lower"}
+STUDY_HEADLINE = {
+    "engine downsizing": "about 40 % (70 kW to about 42 kW)",
+    "m_veh": "about 4 % lower",
+    "fc": "36-46 % lower",
+}
 _UNITS = {**OBJECTIVE_UNITS, "fc_soc_corrected": "L/100 km", "eta_drivetrain": "-", "t_0_100_s": "s"}
 
 
@@ -60,28 +63,67 @@ def _round(v):
 def _pareto_section(pareto: Mapping) -> list[str]:
     c = pareto["counts"]
     out = ["## Merge, screen and select (sizing cycle, simulated objectives)", ""]
-    out.append(markdown_table(["step", "designs"], [
-        ["designs on the fronts", c["input"]], ["identical designs merged", c["duplicates_removed"]],
-        ["distinct designs", c["merged"]], ["non-finite objectives (dropped)", c["non_finite"]],
-        ["non-dominated", c["nondominated"]], ["feasible after screening", c["feasible"]],
-        ["kept (best by rank)", c["kept"]], ["picked for validation", c["picked"]]]))
-    out += ["", "Screening rules, applied in this order to the non-dominated designs "
-            "(a rule switched off removes nothing but is still counted):", ""]
-    out.append(markdown_table(["rule", "on", "criterion", "fails alone", "removed in sequence"], [
-        [name, r["enabled"], r["rule"], r["fails_alone"], r["removed_in_sequence"]]
-        for name, r in pareto["screen"].items()]))
+    out.append(
+        markdown_table(
+            ["step", "designs"],
+            [
+                ["designs on the fronts", c["input"]],
+                ["identical designs merged", c["duplicates_removed"]],
+                ["distinct designs", c["merged"]],
+                ["non-finite objectives (dropped)", c["non_finite"]],
+                ["non-dominated", c["nondominated"]],
+                ["feasible after screening", c["feasible"]],
+                ["kept (best by rank)", c["kept"]],
+                ["picked for validation", c["picked"]],
+            ],
+        )
+    )
+    out += [
+        "",
+        "Screening rules, applied in this order to the non-dominated designs "
+        "(a rule switched off removes nothing but is still counted):",
+        "",
+    ]
+    out.append(
+        markdown_table(
+            ["rule", "on", "criterion", "fails alone", "removed in sequence"],
+            [
+                [name, r["enabled"], r["rule"], r["fails_alone"], r["removed_in_sequence"]]
+                for name, r in pareto["screen"].items()
+            ],
+        )
+    )
     algos = list(pareto["by_algo"])
-    out += ["", markdown_table(["algorithm", "front", "non-dominated", "feasible", "kept", "picked",
-                                "share of kept", "share of picked"], [
-        [a, b["input"], b["nondominated"], b["feasible"], b["kept"], b["picked"],
-         round(pareto["kept_share"][a], 3), round(pareto["picked_share"][a], 3)]
-        for a, b in pareto["by_algo"].items()]) if algos else ""]
+    out += [
+        "",
+        markdown_table(
+            ["algorithm", "front", "non-dominated", "feasible", "kept", "picked", "share of kept", "share of picked"],
+            [
+                [
+                    a,
+                    b["input"],
+                    b["nondominated"],
+                    b["feasible"],
+                    b["kept"],
+                    b["picked"],
+                    round(pareto["kept_share"][a], 3),
+                    round(pareto["picked_share"][a], 3),
+                ]
+                for a, b in pareto["by_algo"].items()
+            ],
+        )
+        if algos
+        else "",
+    ]
     sel = pareto["selection"]
-    out += ["", f"Rank: {sel['rank_rule']}. Pick: `{sel['pick']}`"
-            + (f" (seed {sel['seed']})" if sel.get("seed") is not None else " (farthest-point sampling)")
-            + f", n_keep={sel['n_keep']}, n_pick={sel['n_pick']}. "
-            f"{pareto.get('shared_designs', 0)} distinct design(s) were found by more than one algorithm "
-            "(they count for each, so shares can add up to more than 1)."]
+    out += [
+        "",
+        f"Rank: {sel['rank_rule']}. Pick: `{sel['pick']}`"
+        + (f" (seed {sel['seed']})" if sel.get("seed") is not None else " (farthest-point sampling)")
+        + f", n_keep={sel['n_keep']}, n_pick={sel['n_pick']}. "
+        f"{pareto.get('shared_designs', 0)} distinct design(s) were found by more than one algorithm "
+        "(they count for each, so shares can add up to more than 1).",
+    ]
     for note in pareto.get("notes", []):
         out.append(f"\n> Note: {note}.")
     return out
@@ -89,16 +131,33 @@ def _pareto_section(pareto: Mapping) -> list[str]:
 
 def _designs_table(table: pd.DataFrame, selected: pd.DataFrame, cycle: str) -> str:
     rows = table[table["cycle"] == cycle]
-    rank = (dict(zip(selected["design_id"].astype(str), selected["rank"], strict=True))
-            if "rank" in selected else {})
+    rank = dict(zip(selected["design_id"].astype(str), selected["rank"], strict=True)) if "rank" in selected else {}
     order = list(rows[rows["algo"] != BASELINE_ALGO]["vehicle"]) + ["prius", "conventional"]
     rows = rows.set_index("vehicle").loc[[v for v in order if v in set(rows["vehicle"])]]
-    cols = ["m_veh", "fc", "fc_soc_corrected", "diff_soc", "hc", "co", "nox", "v_max", "f_max",
-            "eta_drivetrain", "t_0_100_s", "cycle_met"]
-    header = ["vehicle", "algo", "rank", *DESIGN_VARS,
-              *[f"{c} [{_UNITS[c]}]" if _UNITS.get(c, "-") != "-" else c for c in cols]]
-    body = [[v, r["algo"], rank.get(v), *[r[x] for x in DESIGN_VARS], *[r[c] for c in cols]]
-            for v, r in rows.iterrows()]
+    cols = [
+        "m_veh",
+        "fc",
+        "fc_soc_corrected",
+        "diff_soc",
+        "hc",
+        "co",
+        "nox",
+        "v_max",
+        "f_max",
+        "eta_drivetrain",
+        "t_0_100_s",
+        "cycle_met",
+    ]
+    header = [
+        "vehicle",
+        "algo",
+        "rank",
+        *DESIGN_VARS,
+        *[f"{c} [{_UNITS[c]}]" if _UNITS.get(c, "-") != "-" else c for c in cols],
+    ]
+    body = [
+        [v, r["algo"], rank.get(v), *[r[x] for x in DESIGN_VARS], *[r[c] for c in cols]] for v, r in rows.iterrows()
+    ]
     return markdown_table(header, body)
 
 
@@ -106,15 +165,25 @@ def _headline(validation: Mapping) -> list[str]:
     imp = validation["improvement"][ALL]["vs_conventional"]
     down = validation["engine_downsizing_pct"][ALL]
     mean = validation["absolute"]["mean_of_picks"][ALL]
-    return [markdown_table(["figure (all picks vs conventional car)", "study", "this run"], [
-        ["engine downsizing", STUDY_HEADLINE["engine downsizing"],
-         "n/a" if down is None else f"{down:.1f} % ({validation['p_eng_conventional_kw']:g} kW to "
-                                    f"{mean_p_eng(validation):.1f} kW)"],
-        ["test mass", STUDY_HEADLINE["m_veh"], _pct(imp.get("m_veh"), "lower")],
-        [f"fuel consumption ({validation['cycle']})", STUDY_HEADLINE["fc"], _pct(imp.get("fc"), "lower")],
-        ["SOC-corrected fuel consumption", "-", _pct(imp.get("fc_soc_corrected"), "lower")],
-        ["mean FC of the picks [L/100 km]", "-", _fmt(mean.get("fc"))],
-    ])]
+    return [
+        markdown_table(
+            ["figure (all picks vs conventional car)", "study", "this run"],
+            [
+                [
+                    "engine downsizing",
+                    STUDY_HEADLINE["engine downsizing"],
+                    "n/a"
+                    if down is None
+                    else f"{down:.1f} % ({validation['p_eng_conventional_kw']:g} kW to "
+                    f"{mean_p_eng(validation):.1f} kW)",
+                ],
+                ["test mass", STUDY_HEADLINE["m_veh"], _pct(imp.get("m_veh"), "lower")],
+                [f"fuel consumption ({validation['cycle']})", STUDY_HEADLINE["fc"], _pct(imp.get("fc"), "lower")],
+                ["SOC-corrected fuel consumption", "-", _pct(imp.get("fc_soc_corrected"), "lower")],
+                ["mean FC of the picks [L/100 km]", "-", _fmt(mean.get("fc"))],
+            ],
+        )
+    ]
 
 
 def mean_p_eng(validation: Mapping) -> float:
@@ -129,38 +198,84 @@ def _pct(v, word: str) -> str:
     return f"{v:.1f} % {word}" if v >= 0 else f"{-v:.1f} % {other}"
 
 
-def build_summary(pareto: Mapping, validation: Mapping, table: pd.DataFrame, selected: pd.DataFrame,
-                  plots: Mapping[str, str], notes: Sequence[str] = ()) -> str:
+def build_summary(
+    pareto: Mapping,
+    validation: Mapping,
+    table: pd.DataFrame,
+    selected: pd.DataFrame,
+    plots: Mapping[str, str],
+    notes: Sequence[str] = (),
+) -> str:
     """The whole ``summary.md`` text. ``plots`` maps a caption to a path relative to the summary."""
     cycle = validation["cycle"]
     imp = validation["improvement"]
-    out = ["# hev-sizing: selection and validation summary", "",
-           "Generated by `hev validate` (do not edit): improvements are means over the picked designs, "
-           "'+' = better. Minimised responses: 100 (base - design) / |base|; maximised (v_max, f_max, "
-           "eta_drivetrain): 100 (design - base) / |base|; diff_soc (SOC at start - SOC at end): "
-           "base - design in SOC percentage points, not applicable against the conventional car "
-           "(no traction battery). A design found by several algorithms counts for each.", ""]
+    out = [
+        "# hev-sizing: selection and validation summary",
+        "",
+        "Generated by `hev validate` (do not edit): improvements are means over the picked designs, "
+        "'+' = better. Minimised responses: 100 (base - design) / |base|; maximised (v_max, f_max, "
+        "eta_drivetrain): 100 (design - base) / |base|; diff_soc (SOC at start - SOC at end): "
+        "base - design in SOC percentage points, not applicable against the conventional car "
+        "(no traction battery). A design found by several algorithms counts for each.",
+        "",
+    ]
     if not validation["counts"]["picked"]:
         worst = max(pareto.get("screen", {}).items(), key=lambda kv: kv[1]["removed_in_sequence"], default=None)
-        out += ["> **No design passed the screening, so nothing was validated and the improvement tables are "
-                "empty.**" + (f" The rule that removed most designs: `{worst[0]}` ({worst[1]['rule']}, "
-                              f"{worst[1]['removed_in_sequence']} removed); see the screening table below."
-                              if worst else ""), ""]
-    out += [f"## Improvement on {cycle} (headline)", "", "### Against the conventional car", "",
-            improvement_markdown(imp, "vs_conventional"), "", "### Against the stock Prius", "",
-            improvement_markdown(imp, "vs_prius"), ""]
+        out += [
+            "> **No design passed the screening, so nothing was validated and the improvement tables are "
+            "empty.**"
+            + (
+                f" The rule that removed most designs: `{worst[0]}` ({worst[1]['rule']}, "
+                f"{worst[1]['removed_in_sequence']} removed); see the screening table below."
+                if worst
+                else ""
+            ),
+            "",
+        ]
+    out += [
+        f"## Improvement on {cycle} (headline)",
+        "",
+        "### Against the conventional car",
+        "",
+        improvement_markdown(imp, "vs_conventional"),
+        "",
+        "### Against the stock Prius",
+        "",
+        improvement_markdown(imp, "vs_prius"),
+        "",
+    ]
     down = validation["engine_downsizing_pct"]
-    out += ["Engine downsizing (mean p_eng_kw of the picks against the conventional engine, '+' = smaller): "
-            + ", ".join(f"{g} {'n/a' if v is None else _fmt(_round(v)) + ' %'}" for g, v in down.items()) + ".", ""]
+    out += [
+        "Engine downsizing (mean p_eng_kw of the picks against the conventional engine, '+' = smaller): "
+        + ", ".join(f"{g} {'n/a' if v is None else _fmt(_round(v)) + ' %'}" for g, v in down.items())
+        + ".",
+        "",
+    ]
     out += ["### Against the study's headline", "", *_headline(validation), ""]
     met = validation["counts"]["cycle_met"]
-    out += ["Cycle met (picks / conventional / Prius): " + "; ".join(
-        f"{c}: {m['picked']} of {validation['counts']['picked']} / {_fmt(m.get('conventional'))} / "
-        f"{_fmt(m.get('prius'))}" for c, m in met.items()) + ".", ""]
+    out += [
+        "Cycle met (picks / conventional / Prius): "
+        + "; ".join(
+            f"{c}: {m['picked']} of {validation['counts']['picked']} / {_fmt(m.get('conventional'))} / "
+            f"{_fmt(m.get('prius'))}"
+            for c, m in met.items()
+        )
+        + ".",
+        "",
+    ]
     for other, sec in validation.get("by_cycle", {}).items():
-        out += [f"## Robustness check: {other}", "", "### Against the conventional car", "",
-                improvement_markdown(sec["improvement"], "vs_conventional"), "",
-                "### Against the stock Prius", "", improvement_markdown(sec["improvement"], "vs_prius"), ""]
+        out += [
+            f"## Robustness check: {other}",
+            "",
+            "### Against the conventional car",
+            "",
+            improvement_markdown(sec["improvement"], "vs_conventional"),
+            "",
+            "### Against the stock Prius",
+            "",
+            improvement_markdown(sec["improvement"], "vs_prius"),
+            "",
+        ]
     out += [f"## Selected designs ({cycle} results)", "", _designs_table(table, selected, cycle), ""]
     out += _pareto_section(pareto) + [""]
     if plots:

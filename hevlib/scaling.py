@@ -45,11 +45,16 @@ def scale_engine(engine: EngineMap, p_kw: float) -> EngineMap:
     """The engine scaled to ``p_kw`` peak power (torque scaling at the fixed speed axis)."""
     s = float(power_scale(p_kw, engine.peak_power_kw))
     return dataclasses.replace(
-        engine, name=f"{engine.name}@{p_kw:g}kW",
-        torque_nm=engine.torque_nm * s, max_torque_nm=engine.max_torque_nm * s,
-        fuel_g_s=engine.fuel_g_s * s, hc_g_s=engine.hc_g_s * s, co_g_s=engine.co_g_s * s,
+        engine,
+        name=f"{engine.name}@{p_kw:g}kW",
+        torque_nm=engine.torque_nm * s,
+        max_torque_nm=engine.max_torque_nm * s,
+        fuel_g_s=engine.fuel_g_s * s,
+        hc_g_s=engine.hc_g_s * s,
+        co_g_s=engine.co_g_s * s,
         nox_g_s=engine.nox_g_s * s,
-        peak_power_kw=engine.peak_power_kw * s, engine_mass_kg=engine.engine_mass_kg * s,
+        peak_power_kw=engine.peak_power_kw * s,
+        engine_mass_kg=engine.engine_mass_kg * s,
         inertia_kg_m2=engine.inertia_kg_m2 * s,
     )
 
@@ -58,9 +63,13 @@ def scale_machine(machine: MachineMap, p_kw: float) -> MachineMap:
     """The machine scaled to ``p_kw`` peak power: torques x s, efficiency unchanged on normalised torque."""
     s = float(power_scale(p_kw, machine.peak_power_kw))
     return dataclasses.replace(
-        machine, name=f"{machine.name}@{p_kw:g}kW", torque_nm=machine.torque_nm * s,
-        max_torque_nm=machine.max_torque_nm * s, peak_power_kw=machine.peak_power_kw * s,
-        mass_kg=machine.mass_kg * s, inertia_kg_m2=machine.inertia_kg_m2 * s,
+        machine,
+        name=f"{machine.name}@{p_kw:g}kW",
+        torque_nm=machine.torque_nm * s,
+        max_torque_nm=machine.max_torque_nm * s,
+        peak_power_kw=machine.peak_power_kw * s,
+        mass_kg=machine.mass_kg * s,
+        inertia_kg_m2=machine.inertia_kg_m2 * s,
     )
 
 
@@ -80,10 +89,10 @@ def machine_mass_kg(machine: MachineMap, p_kw) -> np.ndarray:
 class PackArrays:
     """A pack of ``n_bat`` modules in series (vectorised): SOC tables per pack, in pack units."""
 
-    ocv_v: np.ndarray        # (n, n_soc)
+    ocv_v: np.ndarray  # (n, n_soc)
     r_dis_ohm: np.ndarray
     r_chg_ohm: np.ndarray
-    v_min: np.ndarray        # (n,)
+    v_min: np.ndarray  # (n,)
     v_max: np.ndarray
     capacity_ah: float
     mass_kg: np.ndarray
@@ -96,9 +105,13 @@ def battery_pack(lib: ComponentLibrary, n_bat) -> PackArrays:
         raise ValueError("n_bat: module count must be a positive integer")
     m = lib.battery
     return PackArrays(
-        ocv_v=n[:, None] * m.ocv_v[None, :], r_dis_ohm=n[:, None] * m.r_dis_ohm[None, :],
-        r_chg_ohm=n[:, None] * m.r_chg_ohm[None, :], v_min=n * m.v_min, v_max=n * m.v_max,
-        capacity_ah=m.capacity_ah, mass_kg=n * m.mass_kg,
+        ocv_v=n[:, None] * m.ocv_v[None, :],
+        r_dis_ohm=n[:, None] * m.r_dis_ohm[None, :],
+        r_chg_ohm=n[:, None] * m.r_chg_ohm[None, :],
+        v_min=n * m.v_min,
+        v_max=n * m.v_max,
+        capacity_ah=m.capacity_ah,
+        mass_kg=n * m.mass_kg,
     )
 
 
@@ -106,7 +119,7 @@ def battery_pack(lib: ComponentLibrary, n_bat) -> PackArrays:
 class MassBreakdown:
     """Test-mass build-up of hybrid designs (arrays over designs, kg)."""
 
-    chassis_kg: float        # conventional glider + cargo (the conversion keeps it)
+    chassis_kg: float  # conventional glider + cargo (the conversion keeps it)
     engine_kg: np.ndarray
     motor_kg: np.ndarray
     generator_kg: np.ndarray
@@ -126,8 +139,7 @@ def conventional_chassis_kg(lib: ComponentLibrary, test_mass_kg: float, p_eng_kw
     return chassis
 
 
-def hybrid_masses(lib: ComponentLibrary, chassis_kg: float, p_eng_kw, p_mot_kw, p_gen_kw,
-                  n_bat) -> MassBreakdown:
+def hybrid_masses(lib: ComponentLibrary, chassis_kg: float, p_eng_kw, p_mot_kw, p_gen_kw, n_bat) -> MassBreakdown:
     """SPEC section 4: conventional glider + cargo + scaled engine system, motor, generator, battery.
 
     ADVISOR gives the planetary set and final drive no mass; we keep that (reported in components.json).
@@ -141,8 +153,7 @@ def hybrid_masses(lib: ComponentLibrary, chassis_kg: float, p_eng_kw, p_mot_kw, 
     )
 
 
-def with_conventional_glider(lib: ComponentLibrary, test_mass_kg: float,
-                             p_eng_kw: float) -> ComponentLibrary:
+def with_conventional_glider(lib: ComponentLibrary, test_mass_kg: float, p_eng_kw: float) -> ComponentLibrary:
     """The library with the conventional body's glider mass implied by the conventional car's test mass.
 
     glider = test mass - engine system (``p_eng_kw``) - gearbox and final drive - cargo, so that the
@@ -157,8 +168,7 @@ def with_conventional_glider(lib: ComponentLibrary, test_mass_kg: float,
 
 def regression_value(coefficients: dict, design: dict) -> float:
     """A study regression (``intercept`` + one coefficient per design variable) at one design."""
-    return float(coefficients["intercept"]) + sum(float(coefficients[v]) * float(design[v])
-                                                  for v in DESIGN_VARS)
+    return float(coefficients["intercept"]) + sum(float(coefficients[v]) * float(design[v]) for v in DESIGN_VARS)
 
 
 def _r(x, nd: int = 3) -> float:
@@ -166,22 +176,35 @@ def _r(x, nd: int = 3) -> float:
 
 
 def _engine_fig(e: EngineMap) -> dict:
-    return {"map": e.name, "map_peak_power_kw": _r(e.peak_power_kw),
-            "min_bsfc_g_per_kwh": _r(e.min_bsfc_g_per_kwh(), 2), "max_efficiency": _r(e.max_efficiency(), 4)}
+    return {
+        "map": e.name,
+        "map_peak_power_kw": _r(e.peak_power_kw),
+        "min_bsfc_g_per_kwh": _r(e.min_bsfc_g_per_kwh(), 2),
+        "max_efficiency": _r(e.max_efficiency(), 4),
+    }
 
 
 def _machine_fig(m: MachineMap) -> dict:
-    return {"map": m.name, "map_peak_power_kw": _r(m.peak_power_kw),
-            "max_efficiency": _r(m.efficiency.max(), 4), "map_mass_kg": _r(m.mass_kg)}
+    return {
+        "map": m.name,
+        "map_peak_power_kw": _r(m.peak_power_kw),
+        "max_efficiency": _r(m.efficiency.max(), 4),
+        "map_mass_kg": _r(m.mass_kg),
+    }
 
 
 def _mass_fig(mb: MassBreakdown) -> dict:
-    return {"engine_system_kg": _r(mb.engine_kg), "motor_kg": _r(mb.motor_kg),
-            "generator_kg": _r(mb.generator_kg), "battery_kg": _r(mb.battery_kg)}
+    return {
+        "engine_system_kg": _r(mb.engine_kg),
+        "motor_kg": _r(mb.motor_kg),
+        "generator_kg": _r(mb.generator_kg),
+        "battery_kg": _r(mb.battery_kg),
+    }
 
 
-def components_report(lib: ComponentLibrary, *, conventional: dict, prius: dict, l27_design: dict,
-                      m_veh_regression: dict) -> dict:
+def components_report(
+    lib: ComponentLibrary, *, conventional: dict, prius: dict, l27_design: dict, m_veh_regression: dict
+) -> dict:
     """The figures of ``reports/components.json``: maps, both baselines, battery pack, mass-model checks.
 
     ``conventional``: ``p_eng_kw``, ``test_mass_kg``; ``prius``: ``p_eng_kw``, ``p_mot_kw``, ``p_gen_kw``,
@@ -201,38 +224,55 @@ def components_report(lib: ComponentLibrary, *, conventional: dict, prius: dict,
         "maps": {
             "engine_hybrid": _engine_fig(lib.engine_hybrid),
             "engine_conventional": _engine_fig(lib.engine_conventional),
-            "motor": _machine_fig(lib.motor), "generator": _machine_fig(lib.generator),
+            "motor": _machine_fig(lib.motor),
+            "generator": _machine_fig(lib.generator),
         },
         "prius": {
             **{k: prius[k] for k in sizes},
-            "min_bsfc_g_per_kwh": _r(lib.engine_hybrid.min_bsfc_g_per_kwh(), 2), **_mass_fig(mp),
-            "glider_kg": _r(body_p.glider_mass_kg), "cargo_kg": _r(body_p.cargo_mass_kg),
-            "mass_model_test_mass_kg": _r(mp.test_mass_kg), "test_mass_kg": prius["test_mass_kg"],
+            "min_bsfc_g_per_kwh": _r(lib.engine_hybrid.min_bsfc_g_per_kwh(), 2),
+            **_mass_fig(mp),
+            "glider_kg": _r(body_p.glider_mass_kg),
+            "cargo_kg": _r(body_p.cargo_mass_kg),
+            "mass_model_test_mass_kg": _r(mp.test_mass_kg),
+            "test_mass_kg": prius["test_mass_kg"],
         },
         "conventional": {
             "p_eng_kw": conventional["p_eng_kw"],
             "min_bsfc_g_per_kwh": _r(lib.engine_conventional.min_bsfc_g_per_kwh(), 2),
-            "engine_system_kg": _r(eng_c), "gearbox_kg": _r(lib.gearbox.mass_kg),
-            "glider_kg": _r(body_c.glider_mass_kg), "cargo_kg": _r(body_c.cargo_mass_kg),
+            "engine_system_kg": _r(eng_c),
+            "gearbox_kg": _r(lib.gearbox.mass_kg),
+            "glider_kg": _r(body_c.glider_mass_kg),
+            "cargo_kg": _r(body_c.cargo_mass_kg),
             "test_mass_kg": conventional["test_mass_kg"],
         },
         "battery_pack": {
-            "module": mod.name, "temperature_c": mod.temperature_c, "n_bat": n_bat,
-            "module_capacity_ah": _r(mod.capacity_ah), "module_ocv_mean_v": _r(mod.mean_ocv_v()),
-            "module_v_min": mod.v_min, "module_v_max": mod.v_max, "module_energy_wh": _r(mod.energy_wh(), 2),
-            "module_mass_kg": _r(mod.mass_kg, 4), "pack_ocv_mean_v": _r(n_bat * mod.mean_ocv_v(), 2),
-            "pack_v_min": _r(pack.v_min), "pack_v_max": _r(pack.v_max),
-            "pack_energy_kwh": _r(n_bat * mod.energy_wh() / 1e3, 4), "pack_mass_kg": _r(pack.mass_kg),
+            "module": mod.name,
+            "temperature_c": mod.temperature_c,
+            "n_bat": n_bat,
+            "module_capacity_ah": _r(mod.capacity_ah),
+            "module_ocv_mean_v": _r(mod.mean_ocv_v()),
+            "module_v_min": mod.v_min,
+            "module_v_max": mod.v_max,
+            "module_energy_wh": _r(mod.energy_wh(), 2),
+            "module_mass_kg": _r(mod.mass_kg, 4),
+            "pack_ocv_mean_v": _r(n_bat * mod.mean_ocv_v(), 2),
+            "pack_v_min": _r(pack.v_min),
+            "pack_v_max": _r(pack.v_max),
+            "pack_energy_kwh": _r(n_bat * mod.energy_wh() / 1e3, 4),
+            "pack_mass_kg": _r(pack.mass_kg),
         },
         # conventional test mass minus its engine system (engine, fuel system, exhaust) and its gearbox
         # with final drive; the hybrid's planetary set and final drive weigh 0 kg (as in ADVISOR)
         "conversion": {
-            "chassis_kg": _r(chassis), "glider_kg": _r(body_c.glider_mass_kg),
+            "chassis_kg": _r(chassis),
+            "glider_kg": _r(body_c.glider_mass_kg),
             "cargo_kg": _r(body_c.cargo_mass_kg),
         },
         "l27_design_1": {
-            **{v: l27_design[v] for v in DESIGN_VARS}, **_mass_fig(md),
-            "test_mass_kg": _r(md.test_mass_kg), "regression_test_mass_kg": _r(m_reg),
+            **{v: l27_design[v] for v in DESIGN_VARS},
+            **_mass_fig(md),
+            "test_mass_kg": _r(md.test_mass_kg),
+            "regression_test_mass_kg": _r(m_reg),
             "difference_kg": _r(md.test_mass_kg - m_reg),
             "difference_pct": _r(100 * (md.test_mass_kg - m_reg) / m_reg, 2),
         },
@@ -243,19 +283,25 @@ def study_library(baseline: BaselineParams, paper_dir: str | Path = PAPER_DIR) -
     """The component library of the study: ADVISOR data, Table 1 bodies, the conventional car's glider."""
     table1 = read_baseline_table(Path(paper_dir) / "table1_baseline_vehicles.csv")
     conv = baseline.conventional
-    lib = load_library(baseline.components_dir, battery=baseline.battery,
-                       battery_temperature_c=baseline.battery_temperature_c,
-                       conventional_body=table1["conventional"], prius_body=table1["prius"],
-                       gear_ratios=list(conv.gear_ratios), conventional_idle_rpm=conv.idle_speed_rpm)
+    lib = load_library(
+        baseline.components_dir,
+        battery=baseline.battery,
+        battery_temperature_c=baseline.battery_temperature_c,
+        conventional_body=table1["conventional"],
+        prius_body=table1["prius"],
+        gear_ratios=list(conv.gear_ratios),
+        conventional_idle_rpm=conv.idle_speed_rpm,
+    )
     return with_conventional_glider(lib, conv.test_mass_kg, conv.p_eng_kw)
 
 
-def study_report(lib: ComponentLibrary, baseline: BaselineParams,
-                 paper_dir: str | Path = PAPER_DIR) -> dict:
+def study_report(lib: ComponentLibrary, baseline: BaselineParams, paper_dir: str | Path = PAPER_DIR) -> dict:
     """:func:`components_report` for the params' baselines and the study's L27 design 1."""
     paper = Path(paper_dir)
     return components_report(
-        lib, conventional=baseline.conventional.model_dump(), prius=baseline.prius.model_dump(),
+        lib,
+        conventional=baseline.conventional.model_dump(),
+        prius=baseline.prius.model_dump(),
         l27_design=read_paper_row(paper / "l27_assignment.csv", "exp", 1),
         m_veh_regression=read_paper_row(paper / "regression_equations.csv", "response", "m_veh"),
     )

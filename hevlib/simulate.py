@@ -55,17 +55,26 @@ def engine_arrays(engine: EngineMap) -> EngineArrays:
     if p[0] != 0.0 or not np.allclose(np.diff(p), p[1]):
         raise ValueError(f"engine {engine.name}: best-efficiency line must be on a uniform power grid from 0")
     t = np.maximum.accumulate(t)
-    t[1:] = np.maximum(t[1:], t[:-1] + 1e-9)          # strictly increasing for the inverse lookup
+    t[1:] = np.maximum(t[1:], t[:-1] + 1e-9)  # strictly increasing for the inverse lookup
     if engine.torque_nm[0] != 0.0:
         raise ValueError(f"engine {engine.name}: torque axis must start at 0 N m")
     gw, gt = uniform_axis(engine.speed_rad_s), uniform_axis(engine.torque_nm)
-    maps = [resample(engine.speed_rad_s, engine.torque_nm, m, gw, gt)
-            for m in (engine.fuel_g_s, engine.hc_g_s, engine.co_g_s, engine.nox_g_s)]
+    maps = [
+        resample(engine.speed_rad_s, engine.torque_nm, m, gw, gt)
+        for m in (engine.fuel_g_s, engine.hc_g_s, engine.co_g_s, engine.nox_g_s)
+    ]
     f = np.ascontiguousarray
-    return EngineArrays(float(gw[0]), float(gw[1] - gw[0]), float(gt[1]),
-                        f(resample(engine.speed_rad_s, None, engine.max_torque_nm, gw)), *(f(m) for m in maps),
-                        f(p, float), f(w, float), f(t, float),
-                        f(resample(engine.speed_rad_s, None, engine.closed_throttle_torque_nm, gw)))
+    return EngineArrays(
+        float(gw[0]),
+        float(gw[1] - gw[0]),
+        float(gt[1]),
+        f(resample(engine.speed_rad_s, None, engine.max_torque_nm, gw)),
+        *(f(m) for m in maps),
+        f(p, float),
+        f(w, float),
+        f(t, float),
+        f(resample(engine.speed_rad_s, None, engine.closed_throttle_torque_nm, gw)),
+    )
 
 
 def machine_arrays(machine: MachineMap) -> MachineArrays:
@@ -74,17 +83,25 @@ def machine_arrays(machine: MachineMap) -> MachineArrays:
         raise ValueError(f"machine {machine.name}: speed and torque axes must start at 0")
     gw, gt = uniform_axis(machine.speed_rad_s), uniform_axis(machine.torque_nm)
     f = np.ascontiguousarray
-    return MachineArrays(float(gw[1]), float(gt[1]),
-                         f(resample(machine.speed_rad_s, machine.torque_nm, machine.efficiency, gw, gt)),
-                         f(resample(machine.speed_rad_s, None, machine.max_torque_nm, gw)))
+    return MachineArrays(
+        float(gw[1]),
+        float(gt[1]),
+        f(resample(machine.speed_rad_s, machine.torque_nm, machine.efficiency, gw, gt)),
+        f(resample(machine.speed_rad_s, None, machine.max_torque_nm, gw)),
+    )
 
 
 def battery_arrays(module) -> BatteryArrays:
     if module.soc[0] != 0.0:
         raise ValueError(f"battery {module.name}: SOC axis must start at 0")
     g = uniform_axis(module.soc)
-    return BatteryArrays(float(g[1]), *(np.ascontiguousarray(resample(module.soc, None, a, g))
-                                        for a in (module.ocv_v, module.r_dis_ohm, module.r_chg_ohm)))
+    return BatteryArrays(
+        float(g[1]),
+        *(
+            np.ascontiguousarray(resample(module.soc, None, a, g))
+            for a in (module.ocv_v, module.r_dis_ohm, module.r_chg_ohm)
+        ),
+    )
 
 
 @dataclass(frozen=True)
@@ -113,22 +130,41 @@ class Simulator:
         self._B = battery_arrays(lib.battery)
         self._th = thresholds(params.pms)
         pms = params.pms
-        self._pc = PmsConfig(pms.engine_on_threshold, pms.engine_min_on_s, pms.engine_min_off_s,
-                             pms.engine_min_power_kw * 1e3, pms.charge_power_fraction, pms.soc_target, sim.soc_min,
-                             pms.soc_high.value)
+        self._pc = PmsConfig(
+            pms.engine_on_threshold,
+            pms.engine_min_on_s,
+            pms.engine_min_off_s,
+            pms.engine_min_power_kw * 1e3,
+            pms.charge_power_fraction,
+            pms.soc_target,
+            sim.soc_min,
+            pms.soc_high.value,
+        )
         self._cfg = {
-            "hybrid": self._config(lib.body_conventional, lib.wheel_conventional, lib.accessory_hybrid.electrical_w,
-                                   lib.engine_hybrid),
-            "prius": self._config(lib.body_prius, lib.wheel_prius, lib.accessory_hybrid.electrical_w,
-                                  lib.engine_hybrid),
-            "conventional": self._config(lib.body_conventional, lib.wheel_conventional,
-                                         lib.accessory_conventional.mechanical_w, lib.engine_conventional),
+            "hybrid": self._config(
+                lib.body_conventional, lib.wheel_conventional, lib.accessory_hybrid.electrical_w, lib.engine_hybrid
+            ),
+            "prius": self._config(
+                lib.body_prius, lib.wheel_prius, lib.accessory_hybrid.electrical_w, lib.engine_hybrid
+            ),
+            "conventional": self._config(
+                lib.body_conventional,
+                lib.wheel_conventional,
+                lib.accessory_conventional.mechanical_w,
+                lib.engine_conventional,
+            ),
         }
         gb = lib.gearbox.loss_coefficients
         e = lib.engine_conventional
-        self._conv = ConvDesign(base.conventional.p_eng_kw / e.peak_power_kw, lib.wheel_conventional.radius_m,
-                                lib.conventional_idle_rad_s, lib.conventional_launch_rad_s, e.max_speed_rad_s,
-                                lib.accessory_conventional.mechanical_w, *map(float, gb))
+        self._conv = ConvDesign(
+            base.conventional.p_eng_kw / e.peak_power_kw,
+            lib.wheel_conventional.radius_m,
+            lib.conventional_idle_rad_s,
+            lib.conventional_launch_rad_s,
+            e.max_speed_rad_s,
+            lib.accessory_conventional.mechanical_w,
+            *map(float, gb),
+        )
         self._ratios = np.ascontiguousarray(base.conventional.gear_ratios, float)
         self._upshift = np.ascontiguousarray(base.conventional.upshift_kmh, float)
 
@@ -141,22 +177,42 @@ class Simulator:
         sim, lib = self.params.sim, self.lib
         ps, bat = lib.power_split, lib.battery
         return DriveConfig(
-            dt=dt, mu=sim.adhesion_coefficient, rho=body.air_density_kg_m3,
-            g=body.gravity_m_s2, cda=body.drag_coefficient * body.frontal_area_m2, crr=wheel.rolling_resistance,
-            r=wheel.radius_m, axle0_nm=wheel.axle_drag_nm_at_0kg, axle_per_kg_nm=wheel.axle_drag_nm_per_kg,
-            h_over_l=body.cg_height_m / body.wheelbase_m, f_front=body.front_weight_fraction,
-            soc_init=sim.soc_init, soc_min=sim.soc_min, soc_max=sim.soc_max, eta_pg=sim.planetary_efficiency,
-            eta_fd=sim.final_drive_efficiency, i_max_a=sim.pack_current_max_a,
+            dt=dt,
+            mu=sim.adhesion_coefficient,
+            rho=body.air_density_kg_m3,
+            g=body.gravity_m_s2,
+            cda=body.drag_coefficient * body.frontal_area_m2,
+            crr=wheel.rolling_resistance,
+            r=wheel.radius_m,
+            axle0_nm=wheel.axle_drag_nm_at_0kg,
+            axle_per_kg_nm=wheel.axle_drag_nm_per_kg,
+            h_over_l=body.cg_height_m / body.wheelbase_m,
+            f_front=body.front_weight_fraction,
+            soc_init=sim.soc_init,
+            soc_min=sim.soc_min,
+            soc_max=sim.soc_max,
+            eta_pg=sim.planetary_efficiency,
+            eta_fd=sim.final_drive_efficiency,
+            i_max_a=sim.pack_current_max_a,
             brake_v_mps=np.ascontiguousarray(wheel.brake_speed_mps, float),
-            brake_share=np.ascontiguousarray(wheel.brake_driveline_share, float), p_acc_w=float(p_acc_w),
-            lhv_j_per_g=lib.engine_hybrid.lhv_j_per_g, w_e_min=ps.engine_min_on_speed_rad_s,
+            brake_share=np.ascontiguousarray(wheel.brake_driveline_share, float),
+            p_acc_w=float(p_acc_w),
+            lhv_j_per_g=lib.engine_hybrid.lhv_j_per_g,
+            w_e_min=ps.engine_min_on_speed_rad_s,
             w_e_max=min(ps.engine_max_speed_rad_s, lib.engine_hybrid.max_speed_rad_s),
             w_m_max=min(ps.motor_max_speed_rad_s, lib.motor.max_speed_rad_s),
             w_g_max=min(ps.generator_max_speed_rad_s, lib.generator.max_speed_rad_s),
-            cap_as=bat.capacity_ah * 3600.0, eta_c=bat.coulombic_efficiency, v_min_mod=bat.v_min, v_max_mod=bat.v_max,
-            w_idle=lib.conventional_idle_rad_s, w_launch=lib.conventional_launch_rad_s,
-            j_wheel=wheel.inertia_kg_m2, j_eng=engine.inertia_kg_m2, j_mot=lib.motor.inertia_kg_m2,
-            j_gen=lib.generator.inertia_kg_m2, off_trace_mps=sim.cycle_met_tolerance_kmh / 3.6,
+            cap_as=bat.capacity_ah * 3600.0,
+            eta_c=bat.coulombic_efficiency,
+            v_min_mod=bat.v_min,
+            v_max_mod=bat.v_max,
+            w_idle=lib.conventional_idle_rad_s,
+            w_launch=lib.conventional_launch_rad_s,
+            j_wheel=wheel.inertia_kg_m2,
+            j_eng=engine.inertia_kg_m2,
+            j_mot=lib.motor.inertia_kg_m2,
+            j_gen=lib.generator.inertia_kg_m2,
+            off_trace_mps=sim.cycle_met_tolerance_kmh / 3.6,
         )
 
     def _report_failure(self, r: pd.DataFrame, failed: np.ndarray, cycle: Cycle, dist_ref_m: np.ndarray) -> None:
@@ -191,9 +247,13 @@ class Simulator:
         """
         lib, sim = self.lib, self.params.sim
         j = DESIGN_VARS.index("p_eng_kw")
-        engines = ((lib.engine_hybrid, self.space.upper[j] / lib.engine_hybrid.peak_power_kw),
-                   (lib.engine_conventional, self.params.baseline.conventional.p_eng_kw
-                    / lib.engine_conventional.peak_power_kw))
+        engines = (
+            (lib.engine_hybrid, self.space.upper[j] / lib.engine_hybrid.peak_power_kw),
+            (
+                lib.engine_conventional,
+                self.params.baseline.conventional.p_eng_kw / lib.engine_conventional.peak_power_kw,
+            ),
+        )
         km = sim.min_distance_share * cycle.distance_m / 1e3
         out = {}
         for key, rate in (("fc", "fuel_g_s"), ("hc", "hc_g_s"), ("co", "co_g_s"), ("nox", "nox_g_s")):
@@ -240,8 +300,15 @@ class Simulator:
         raise ValueError(f"vehicle: {vehicle!r} has no fixed design")
 
     # ----------------------------------------------------------------------------------- running
-    def run_raw(self, X: np.ndarray | None, cycle: Cycle, vehicle: Vehicle = "hybrid", *,
-                record: bool = False, performance: bool = True) -> RunOutput:
+    def run_raw(
+        self,
+        X: np.ndarray | None,
+        cycle: Cycle,
+        vehicle: Vehicle = "hybrid",
+        *,
+        record: bool = False,
+        performance: bool = True,
+    ) -> RunOutput:
         """Kernel outputs for one batch (all designs of ``X``; traces for all if ``record``)."""
         rows = self._rows(X if X is not None else np.empty((0, 7)), vehicle)
         n = rows.shape[0]
@@ -256,11 +323,41 @@ class Simulator:
         sin_g, cos_g = grade_trig(grade)
         key_on = np.ascontiguousarray(cycle.key_on, bool)
         if vehicle == "conventional":
-            drive_conventional(rows, cfg, self._ratios, self._upshift, self._conv, self._E_c, v_ref, grade, sin_g,
-                               cos_g, key_on, out, traces, rec)
+            drive_conventional(
+                rows,
+                cfg,
+                self._ratios,
+                self._upshift,
+                self._conv,
+                self._E_c,
+                v_ref,
+                grade,
+                sin_g,
+                cos_g,
+                key_on,
+                out,
+                traces,
+                rec,
+            )
         else:
-            drive_hybrid(rows, cfg, self._th, self._pc, self._E_h, self._M, self._G, self._B, v_ref, grade, sin_g,
-                         cos_g, key_on, out, traces, rec)
+            drive_hybrid(
+                rows,
+                cfg,
+                self._th,
+                self._pc,
+                self._E_h,
+                self._M,
+                self._G,
+                self._B,
+                v_ref,
+                grade,
+                sin_g,
+                cos_g,
+                key_on,
+                out,
+                traces,
+                rec,
+            )
         perf = self.performance_rows(rows, vehicle) if performance else np.full((n, 3), np.nan)
         return RunOutput(out, perf, rows[:, 7].copy(), traces if record else None)
 
@@ -268,11 +365,29 @@ class Simulator:
         sim = self.params.sim
         kind = 1 if vehicle == "conventional" else 0
         E = self._E_c if kind else self._E_h
-        return performance_batch(kind, rows, self._cfg[vehicle], self._ratios, self._conv, E, self._M, self._G,
-                                 self._B, sim.perf_dt_s, sim.perf_max_time_s)
+        return performance_batch(
+            kind,
+            rows,
+            self._cfg[vehicle],
+            self._ratios,
+            self._conv,
+            E,
+            self._M,
+            self._G,
+            self._B,
+            sim.perf_dt_s,
+            sim.perf_max_time_s,
+        )
 
-    def run(self, X: np.ndarray | None, cycle: Cycle, vehicle: Vehicle = "hybrid", *, batch_size: int = 1000,
-            progress: Callable[[int, int], None] | None = None) -> pd.DataFrame:
+    def run(
+        self,
+        X: np.ndarray | None,
+        cycle: Cycle,
+        vehicle: Vehicle = "hybrid",
+        *,
+        batch_size: int = 1000,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> pd.DataFrame:
         """Responses (``hevlib.design.RESPONSES`` columns), one row per design of ``X`` in order.
 
         ``X``: (n, 7) in ``DESIGN_VARS`` order, checked against the design space (ignored for the two
@@ -284,7 +399,7 @@ class Simulator:
             X = self.space.check(X, what="designs")
             frames = []
             for start in range(0, X.shape[0], max(int(batch_size), 1)):
-                frames.append(self.responses(self.run_raw(X[start:start + batch_size], cycle, vehicle), cycle))
+                frames.append(self.responses(self.run_raw(X[start : start + batch_size], cycle, vehicle), cycle))
                 if progress is not None:
                     progress(min(start + batch_size, X.shape[0]), X.shape[0])
         if not frames:
@@ -315,8 +430,11 @@ class Simulator:
         e_fuel, e_batt = o["e_fuel_j"].to_numpy(), o["e_batt_j"].to_numpy()
         # SOC correction (SAE J1711 spirit): net battery energy as the fuel the engine would have burnt
         # to put it back through the generator, at this run's own mean engine and generator efficiency.
-        eta_eng = np.where(e_fuel > 0, o["e_eng_shaft_j"].to_numpy() / np.where(e_fuel > 0, e_fuel, 1.0),
-                           lib.engine_hybrid.max_efficiency())
+        eta_eng = np.where(
+            e_fuel > 0,
+            o["e_eng_shaft_j"].to_numpy() / np.where(e_fuel > 0, e_fuel, 1.0),
+            lib.engine_hybrid.max_efficiency(),
+        )
         gen_in = o["e_gen_mech_in_j"].to_numpy()
         eta_gen = np.where(gen_in > 0, o["e_gen_elec_out_j"].to_numpy() / np.where(gen_in > 0, gen_in, 1.0), 0.9)
         fuel_equiv_l = e_batt / (np.clip(eta_eng * eta_gen, 0.05, 1.0) * lhv) / rho_fuel
@@ -324,30 +442,38 @@ class Simulator:
         in_energy = e_fuel + e_batt
         stalled = o["stuck_max_s"].to_numpy() > sim.stall_time_s
         unmet_kwh = o["e_acc_unmet_j"].to_numpy() / 3.6e6
-        r = pd.DataFrame({
-            "m_veh": res.mass_kg,
-            "fc": 100.0 * fuel_l / dist_km,
-            "accel_dev": 100.0 * o["acc_short_sum_mps2"].to_numpy() / np.where(acc_req > 0, acc_req, 1.0),
-            "hc": o["hc_g"].to_numpy() / dist_km,
-            "co": o["co_g"].to_numpy() / dist_km,
-            "nox": o["nox_g"].to_numpy() / dist_km,
-            "e_l": np.maximum(o["dist_ref_m"].to_numpy() - o["dist_m"].to_numpy(), 0.0) / 1e3,
-            # share of the cycle's duration off the trace by more than the tolerance (ADVISOR's 2 mph)
-            "speed_dev": o["off_trace_s"].to_numpy() / cycle.duration_s,
-            "diff_soc": sim.soc_init - o["soc_end"].to_numpy(),
-            "v_max": res.perf[:, 2],
-            "f_max": res.perf[:, 0],
-            "fc_soc_corrected": 100.0 * (fuel_l + fuel_equiv_l) / dist_km,
-            # no energy in (never started, never drew on the battery): no tractive energy out either
-            "eta_drivetrain": np.where(in_energy > 0, o["e_traction_j"].to_numpy()
-                                       / np.where(in_energy > 0, in_energy, 1.0), 0.0),
-            "t_0_100_s": res.perf[:, 1],
-            "cycle_met": ((o["max_speed_err_mps"].to_numpy() * 3.6 <= sim.cycle_met_tolerance_kmh)
-                          & ~stalled & (unmet_kwh <= UNMET_TOL_KWH)),
-            "speed_err_mean_kmh": 3.6 * o["speed_err_sum_mps"].to_numpy() / np.maximum(o["n_steps"].to_numpy(), 1.0),
-            "stalled": stalled,
-            "accessory_unmet_kwh": unmet_kwh,
-        })
+        r = pd.DataFrame(
+            {
+                "m_veh": res.mass_kg,
+                "fc": 100.0 * fuel_l / dist_km,
+                "accel_dev": 100.0 * o["acc_short_sum_mps2"].to_numpy() / np.where(acc_req > 0, acc_req, 1.0),
+                "hc": o["hc_g"].to_numpy() / dist_km,
+                "co": o["co_g"].to_numpy() / dist_km,
+                "nox": o["nox_g"].to_numpy() / dist_km,
+                "e_l": np.maximum(o["dist_ref_m"].to_numpy() - o["dist_m"].to_numpy(), 0.0) / 1e3,
+                # share of the cycle's duration off the trace by more than the tolerance (ADVISOR's 2 mph)
+                "speed_dev": o["off_trace_s"].to_numpy() / cycle.duration_s,
+                "diff_soc": sim.soc_init - o["soc_end"].to_numpy(),
+                "v_max": res.perf[:, 2],
+                "f_max": res.perf[:, 0],
+                "fc_soc_corrected": 100.0 * (fuel_l + fuel_equiv_l) / dist_km,
+                # no energy in (never started, never drew on the battery): no tractive energy out either
+                "eta_drivetrain": np.where(
+                    in_energy > 0, o["e_traction_j"].to_numpy() / np.where(in_energy > 0, in_energy, 1.0), 0.0
+                ),
+                "t_0_100_s": res.perf[:, 1],
+                "cycle_met": (
+                    (o["max_speed_err_mps"].to_numpy() * 3.6 <= sim.cycle_met_tolerance_kmh)
+                    & ~stalled
+                    & (unmet_kwh <= UNMET_TOL_KWH)
+                ),
+                "speed_err_mean_kmh": 3.6
+                * o["speed_err_sum_mps"].to_numpy()
+                / np.maximum(o["n_steps"].to_numpy(), 1.0),
+                "stalled": stalled,
+                "accessory_unmet_kwh": unmet_kwh,
+            }
+        )
         failed = stalled | (o["dist_m"].to_numpy() < sim.min_distance_share * cycle.distance_m)
         if failed.any():
             self._report_failure(r, failed, cycle, o["dist_ref_m"].to_numpy())

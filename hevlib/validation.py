@@ -34,7 +34,16 @@ from hevlib.pareto import algo_names
 
 #: Responses of the improvement table, in its row order.
 IMPROVEMENT_RESPONSES: tuple[str, ...] = (
-    "m_veh", "fc", "fc_soc_corrected", "diff_soc", "hc", "co", "nox", "v_max", "f_max", "eta_drivetrain",
+    "m_veh",
+    "fc",
+    "fc_soc_corrected",
+    "diff_soc",
+    "hc",
+    "co",
+    "nox",
+    "v_max",
+    "f_max",
+    "eta_drivetrain",
 )
 MAXIMISED = frozenset({"v_max", "f_max", "eta_drivetrain"})
 #: Responses whose improvement is an absolute difference (SOC percentage points), not a percentage.
@@ -48,8 +57,14 @@ _EPS = 1e-12
 
 
 class RunsCycles(Protocol):
-    def run(self, X: np.ndarray, cycle: Cycle, vehicle: str = "hybrid", batch_size: int = 1000,
-            progress: Callable[[int, int], None] | None = None) -> pd.DataFrame: ...
+    def run(
+        self,
+        X: np.ndarray,
+        cycle: Cycle,
+        vehicle: str = "hybrid",
+        batch_size: int = 1000,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> pd.DataFrame: ...
 
 
 # ---------------------------------------------------------------------------------- improvement
@@ -80,8 +95,12 @@ def group_rows(vehicles: pd.DataFrame, algos: Sequence[str]) -> dict[str, np.nda
     return groups
 
 
-def improvement_table(designs: pd.DataFrame, baselines: dict[str, pd.Series], algos: Sequence[str],
-                      responses: Sequence[str] = IMPROVEMENT_RESPONSES) -> dict:
+def improvement_table(
+    designs: pd.DataFrame,
+    baselines: dict[str, pd.Series],
+    algos: Sequence[str],
+    responses: Sequence[str] = IMPROVEMENT_RESPONSES,
+) -> dict:
     """``{algo|"all": {"vs_<baseline>": {response: mean improvement or None}}}`` for one cycle."""
     out = {}
     for group, mask in group_rows(designs, algos).items():
@@ -89,13 +108,13 @@ def improvement_table(designs: pd.DataFrame, baselines: dict[str, pd.Series], al
         for name, base in baselines.items():
             has_batt = name not in NO_BATTERY
             out[group][f"vs_{name}"] = {
-                r: _mean(improvement(r, designs.loc[mask, r].to_numpy(dtype=float), base[r],
-                                     base_has_battery=has_batt)) for r in responses}
+                r: _mean(improvement(r, designs.loc[mask, r].to_numpy(dtype=float), base[r], base_has_battery=has_batt))
+                for r in responses
+            }
     return out
 
 
-def engine_downsizing(designs: pd.DataFrame, algos: Sequence[str],
-                      p_conv_kw: float) -> dict[str, float | None]:
+def engine_downsizing(designs: pd.DataFrame, algos: Sequence[str], p_conv_kw: float) -> dict[str, float | None]:
     """Mean engine power of each group's picks vs the conventional engine, in % ('+' = smaller)."""
     out = {}
     for group, mask in group_rows(designs, algos).items():
@@ -115,8 +134,11 @@ def load_cycles(names: Sequence[str], known: Sequence[str], cycles_dir: str | Pa
 
 def cycle_notes(cycles: Sequence[Cycle]) -> list[str]:
     """Report lines for validation cycles that carry a road grade (validation is meant on a flat road)."""
-    return [f"validation cycle {c.name} carries a mean road grade of {100 * float(np.mean(c.grade)):.1f} %"
-            for c in cycles if np.any(c.grade != 0)]
+    return [
+        f"validation cycle {c.name} carries a mean road grade of {100 * float(np.mean(c.grade)):.1f} %"
+        for c in cycles
+        if np.any(c.grade != 0)
+    ]
 
 
 def prius_design(prius) -> np.ndarray:
@@ -133,8 +155,9 @@ def _responses(df: pd.DataFrame, n: int, what: str) -> pd.DataFrame:
     return df[list(RESPONSES)].reset_index(drop=True)
 
 
-def validation_table(sim: RunsCycles, selected: pd.DataFrame, cycles: Sequence[Cycle], prius_x: np.ndarray,
-                     *, batch_size: int = 1000) -> pd.DataFrame:
+def validation_table(
+    sim: RunsCycles, selected: pd.DataFrame, cycles: Sequence[Cycle], prius_x: np.ndarray, *, batch_size: int = 1000
+) -> pd.DataFrame:
     """Simulate the picks and both baselines on every cycle: one row per vehicle and cycle.
 
     Columns: ``vehicle`` (the design id, ``conventional`` or ``prius``), ``algo`` (``baseline`` for the
@@ -147,14 +170,20 @@ def validation_table(sim: RunsCycles, selected: pd.DataFrame, cycles: Sequence[C
     for cycle in cycles:
         blocks = []
         if len(X):
-            res = _responses(sim.run(X, cycle, vehicle="hybrid", batch_size=batch_size), len(X),
-                             f"the picked designs on {cycle.name}")
-            ids = pd.DataFrame({"vehicle": selected["design_id"].astype(str).to_numpy(),
-                                "algo": selected["algo"].astype(str).to_numpy()})
+            res = _responses(
+                sim.run(X, cycle, vehicle="hybrid", batch_size=batch_size),
+                len(X),
+                f"the picked designs on {cycle.name}",
+            )
+            ids = pd.DataFrame(
+                {
+                    "vehicle": selected["design_id"].astype(str).to_numpy(),
+                    "algo": selected["algo"].astype(str).to_numpy(),
+                }
+            )
             blocks.append(pd.concat([ids, pd.DataFrame(X, columns=list(DESIGN_VARS)), res], axis=1))
         for vehicle in BASELINES:
-            res = _responses(sim.run(prius_x[None, :], cycle, vehicle=vehicle), 1,
-                             f"{vehicle} on {cycle.name}")
+            res = _responses(sim.run(prius_x[None, :], cycle, vehicle=vehicle), 1, f"{vehicle} on {cycle.name}")
             x = prius_x if vehicle == "prius" else np.full(len(DESIGN_VARS), np.nan)
             ids = pd.DataFrame({"vehicle": [vehicle], "algo": [BASELINE_ALGO]})
             blocks.append(pd.concat([ids, pd.DataFrame(x[None, :], columns=list(DESIGN_VARS)), res], axis=1))
@@ -169,8 +198,11 @@ def validation_table(sim: RunsCycles, selected: pd.DataFrame, cycles: Sequence[C
 
 def validation_schema() -> pa.Schema:
     """Explicit schema of ``reports/validation.parquet``."""
-    fields = [pa.field("vehicle", pa.string(), nullable=False), pa.field("algo", pa.string(), nullable=False),
-              pa.field("cycle", pa.string(), nullable=False)]
+    fields = [
+        pa.field("vehicle", pa.string(), nullable=False),
+        pa.field("algo", pa.string(), nullable=False),
+        pa.field("cycle", pa.string(), nullable=False),
+    ]
     fields += [pa.field(v, pa.float64()) for v in DESIGN_VARS]
     fields += [pa.field(r, pa.bool_() if r in BOOL_RESPONSES else pa.float64()) for r in RESPONSES]
     return pa.schema(fields)
@@ -184,8 +216,7 @@ def split_cycle(table: pd.DataFrame, cycle: str) -> tuple[pd.DataFrame, dict[str
     for name in BASELINES:
         hit = rows[rows["vehicle"] == name]
         if len(hit) != 1:
-            raise ValueError(f"validation table: expected one {name!r} row on cycle {cycle!r}, "
-                             f"got {len(hit)}")
+            raise ValueError(f"validation table: expected one {name!r} row on cycle {cycle!r}, got {len(hit)}")
         baselines[name] = hit.iloc[0]
     return designs, baselines
 
@@ -203,8 +234,9 @@ def best_design(table: pd.DataFrame, cycle: str) -> str | None:
     return str(pool["vehicle"].iloc[int(np.nanargmin(fc))])
 
 
-def traces(sim, selected: pd.DataFrame, design_id: str, cycle: Cycle,
-           prius_x: np.ndarray) -> dict[str, pd.DataFrame] | None:
+def traces(
+    sim, selected: pd.DataFrame, design_id: str, cycle: Cycle, prius_x: np.ndarray
+) -> dict[str, pd.DataFrame] | None:
     """Time traces of one picked design and both baselines on ``cycle`` (``sim.trace``), keyed by vehicle;
     None when the simulator offers no traces."""
     trace = getattr(sim, "trace", None)
@@ -240,24 +272,42 @@ def summarise(table: pd.DataFrame, algos: Sequence[str], cycles: Sequence[str], 
         "cycle": headline,
         "improvement": improvement_table(designs, baselines, algos),
         "units": {r: ("SOC percentage points" if r in SOC_POINTS else "%") for r in IMPROVEMENT_RESPONSES},
-        "counts": {"picked": int(len(designs)),
-                   "by_algo": {g: int(m.sum()) for g, m in groups.items() if g != ALL},
-                   "cycle_met": met},
+        "counts": {
+            "picked": int(len(designs)),
+            "by_algo": {g: int(m.sum()) for g, m in groups.items() if g != ALL},
+            "cycle_met": met,
+        },
         "engine_downsizing_pct": engine_downsizing(designs, algos, p_conv_kw),
-        "mean_p_eng_kw": {g: _mean(designs.loc[m, "p_eng_kw"].to_numpy(dtype=float))
-                          for g, m in groups.items()},
+        "mean_p_eng_kw": {g: _mean(designs.loc[m, "p_eng_kw"].to_numpy(dtype=float)) for g, m in groups.items()},
         "p_eng_conventional_kw": float(p_conv_kw),
-        "absolute": {"mean_of_picks": {g: _abs(designs[m]) for g, m in groups.items()},
-                     **{name: {r: float(b[r]) for r in IMPROVEMENT_RESPONSES}
-                        for name, b in baselines.items()}},
+        "absolute": {
+            "mean_of_picks": {g: _abs(designs[m]) for g, m in groups.items()},
+            **{name: {r: float(b[r]) for r in IMPROVEMENT_RESPONSES} for name, b in baselines.items()},
+        },
         "by_cycle": by_cycle,
         "best_design": best_design(table, headline),
     }
 
 
 __all__ = [
-    "IMPROVEMENT_RESPONSES", "MAXIMISED", "SOC_POINTS", "BASELINES", "NO_BATTERY", "BASELINE_ALGO", "ALL",
-    "improvement", "group_rows", "improvement_table", "engine_downsizing", "load_cycles", "cycle_notes",
-    "prius_design", "validation_table", "validation_schema", "split_cycle", "best_design", "summarise",
+    "IMPROVEMENT_RESPONSES",
+    "MAXIMISED",
+    "SOC_POINTS",
+    "BASELINES",
+    "NO_BATTERY",
+    "BASELINE_ALGO",
+    "ALL",
+    "improvement",
+    "group_rows",
+    "improvement_table",
+    "engine_downsizing",
+    "load_cycles",
+    "cycle_notes",
+    "prius_design",
+    "validation_table",
+    "validation_schema",
+    "split_cycle",
+    "best_design",
+    "summarise",
     "traces",
 ]

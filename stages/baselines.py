@@ -30,5 +30,9 @@ def baselines(params: str = PARAMS_OPTION) -> None:
     write_json(REPORT, report)
     write_table(BALANCE, balance)
     write_table(TRACE_CSV, trace.drop(columns="design"), float_format="%.6g")
-    plot_hybrid_trace(trace, scale_engine(sim.lib.engine_hybrid, p.baseline.prius.p_eng_kw), TRACE_PLOT,
-                      title=f"stock Prius on {validation.name.upper()}")
+    plot_hybrid_trace(
+        trace,
+        scale_engine(sim.lib.engine_hybrid, p.baseline.prius.p_eng_kw),
+        TRACE_PLOT,
+        title=f"stock Prius on {validation.name.upper()}",
+    )

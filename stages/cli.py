@@ -11,8 +11,11 @@ import pkgutil
 
 import typer
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
-                  help="hev-sizing: size a power-split hybrid conversion of a conventional car.")
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    help="hev-sizing: size a power-split hybrid conversion of a conventional car.",
+)
 
 _NOT_STAGES = {"cli", "common"}
 

@@ -29,6 +29,7 @@ def doe_stage(params: str = PARAMS_OPTION) -> None:
     summary = doe.doe_summary(table.to_pandas(), meta)
     doe.write_doe(DOE, table, meta)
     write_json(REPORT, summary)
-    typer.echo(f"doe: {summary['n_designs']} designs {summary['by_source']} on {cycle.name}, "
-               f"{summary['n_cycle_not_met']} missed the cycle -> {DOE}")
-
+    typer.echo(
+        f"doe: {summary['n_designs']} designs {summary['by_source']} on {cycle.name}, "
+        f"{summary['n_cycle_not_met']} missed the cycle -> {DOE}"
+    )

@@ -30,8 +30,7 @@ def pareto(params_path: str = PARAMS_OPTION) -> None:
     fronts = {a: read_table(FRONTS_DIR / f"{a}.parquet") for a in algos}
     result = select_designs(fronts, params.screen)
     kept = result.merged[result.merged["kept"]]
-    figures = {"tradeoffs.png": tradeoffs_figure(kept, algos),
-               "distributions.png": distributions_figure(kept, algos)}
+    figures = {"tradeoffs.png": tradeoffs_figure(kept, algos), "distributions.png": distributions_figure(kept, algos)}
     plot_data = {a: tradeoff_data(kept, a).to_csv(index=False) for a in algos}
 
     write_parquet(MERGED, result.merged, table_schema(result.merged))
@@ -42,5 +41,7 @@ def pareto(params_path: str = PARAMS_OPTION) -> None:
     for a, text in plot_data.items():
         write_text(PLOT_DATA_DIR / f"{a}.csv", text)
     c = result.summary["counts"]
-    print(f"pareto: {c['merged']} designs, {c['nondominated']} non-dominated, {c['feasible']} feasible, "
-          f"{c['kept']} kept, {c['picked']} picked -> {SELECTED}")
+    print(
+        f"pareto: {c['merged']} designs, {c['nondominated']} non-dominated, {c['feasible']} feasible, "
+        f"{c['kept']} kept, {c['picked']} picked -> {SELECTED}"
+    )

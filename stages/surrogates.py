@@ -91,8 +91,9 @@ def surrogates_stage(params: str = PARAMS_OPTION) -> None:
     Xh, Yh = _xy(heldout_df, str(HELDOUT))
 
     with progress_callback(f"bnn: {cfg.surrogate.bnn.max_epochs} epochs") as cb:
-        study = fit_surrogates(X, Y, Xh, Yh, cfg.surrogate, cfg.design_space.space(),
-                               cfg.screen.speed_dev_max, progress=cb)
+        study = fit_surrogates(
+            X, Y, Xh, Yh, cfg.surrogate, cfg.design_space.space(), cfg.screen.speed_dev_max, progress=cb
+        )
     bnn, reg = study.models["bnn"], study.models["regression"]
     metrics = study.metrics
     signs = compare_signs(reg, study_coef)
@@ -112,9 +113,13 @@ def surrogates_stage(params: str = PARAMS_OPTION) -> None:
     n = study.n_designs
     offsets = dict(zip(OBJECTIVES, bnn.target_transform_.offset, strict=True))
     logged = ", ".join(o + (f" (+{offsets[o]:.3g})" if offsets[o] else "") for o in bnn.log_targets) or "none"
-    typer.echo(f"surrogates: {n['train']} train / {n['test']} test / {n['heldout']} held-out designs "
-               f"({n['heldout_followers']} follow the cycle: speed_dev <= {cfg.screen.speed_dev_max:g}); "
-               f"BNN log targets: {logged}; alpha={bnn.alpha_:.3g} beta={bnn.beta_:.3g} "
-               f"gamma={bnn.gamma_:.1f} of {bnn.n_weights_} weights after {bnn.epochs_} epochs")
-    typer.echo("held-out R^2 and Spearman rho, all held-out designs and the followers (fol.):\n"
-               + summary_table(metrics).to_string(float_format=lambda v: f"{v:.3f}"))
+    typer.echo(
+        f"surrogates: {n['train']} train / {n['test']} test / {n['heldout']} held-out designs "
+        f"({n['heldout_followers']} follow the cycle: speed_dev <= {cfg.screen.speed_dev_max:g}); "
+        f"BNN log targets: {logged}; alpha={bnn.alpha_:.3g} beta={bnn.beta_:.3g} "
+        f"gamma={bnn.gamma_:.1f} of {bnn.n_weights_} weights after {bnn.epochs_} epochs"
+    )
+    typer.echo(
+        "held-out R^2 and Spearman rho, all held-out designs and the followers (fol.):\n"
+        + summary_table(metrics).to_string(float_format=lambda v: f"{v:.3f}")
+    )

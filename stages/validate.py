@@ -49,18 +49,26 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     table = validation_table(sim, selected, cycles, prius_x)
     summary = summarise(table, algos, names, params.baseline.conventional.p_eng_kw)
 
-    figures = {f"improvement_{c}.png": improvement_figure(
-        summary["improvement"] if c == names[0] else summary["by_cycle"][c]["improvement"], c) for c in names}
+    figures = {
+        f"improvement_{c}.png": improvement_figure(
+            summary["improvement"] if c == names[0] else summary["by_cycle"][c]["improvement"], c
+        )
+        for c in names
+    }
     notes = cycle_notes(cycles)
     best = summary["best_design"]
     tr = traces(sim, selected, best, cycles[0], prius_x) if best is not None else None
     if tr is not None:
         figures[f"traces_{names[0]}.png"] = traces_figure(tr, names[0])
     else:
-        notes.append("no time-trace plot: " + ("no picked design" if best is None
-                                               else "the simulator offers no traces (Simulator.trace)"))
-    plots = {"Objective trade-offs of the kept designs (sizing cycle)": "plots/pareto/tradeoffs.png",
-             "Distributions of the kept designs' objectives (sizing cycle)": "plots/pareto/distributions.png"}
+        notes.append(
+            "no time-trace plot: "
+            + ("no picked design" if best is None else "the simulator offers no traces (Simulator.trace)")
+        )
+    plots = {
+        "Objective trade-offs of the kept designs (sizing cycle)": "plots/pareto/tradeoffs.png",
+        "Distributions of the kept designs' objectives (sizing cycle)": "plots/pareto/distributions.png",
+    }
     plots.update({f"Improvement on {c}": f"plots/validation/improvement_{c}.png" for c in names})
     if tr is not None:
         caption = f"{names[0]} traces: best design {best} against both baselines"

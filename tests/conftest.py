@@ -23,10 +23,12 @@ def root() -> Path:
 def params() -> Params:
     """The repository's params.yaml, with data paths made absolute (tests may run from any folder)."""
     p = load_params(ROOT / "params.yaml")
-    return p.model_copy(update={
-        "cycles": p.cycles.model_copy(update={"raw_dir": str(ROOT / p.cycles.raw_dir)}),
-        "baseline": p.baseline.model_copy(update={"components_dir": str(ROOT / p.baseline.components_dir)}),
-    })
+    return p.model_copy(
+        update={
+            "cycles": p.cycles.model_copy(update={"raw_dir": str(ROOT / p.cycles.raw_dir)}),
+            "baseline": p.baseline.model_copy(update={"components_dir": str(ROOT / p.baseline.components_dir)}),
+        }
+    )
 
 
 @pytest.fixture(scope="session")

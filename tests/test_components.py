@@ -30,8 +30,9 @@ def test_engine_figures_match_the_source(lib, raw):
     assert hyb.peak_power_kw == pytest.approx(42.7136, abs=1e-3)
     assert conv.peak_power_kw == pytest.approx(62.6690, abs=1e-3)
     # minimum BSFC over grid points at or below full load (ADVISOR_README: 219.4 and 247.5 g/kWh)
-    assert hyb.min_bsfc_g_per_kwh() == pytest.approx(_raw(raw, "FC_PRIUS_JPN.yaml")["derived_checks"][
-        "min_bsfc_g_per_kwh_at_or_below_full_load"], rel=1e-9)
+    assert hyb.min_bsfc_g_per_kwh() == pytest.approx(
+        _raw(raw, "FC_PRIUS_JPN.yaml")["derived_checks"]["min_bsfc_g_per_kwh_at_or_below_full_load"], rel=1e-9
+    )
     assert conv.min_bsfc_g_per_kwh() == pytest.approx(247.5326, abs=1e-3)
     assert hyb.max_efficiency() == pytest.approx(0.3852, abs=1e-4)
 
@@ -56,16 +57,16 @@ def test_prius_zero_torque_fuel_is_the_willans_intercept(lib):
     t1, t2 = eng.torque_nm[1:3]
     f1, f2 = eng.fuel_g_s[:, 1], eng.fuel_g_s[:, 2]
     np.testing.assert_allclose(eng.fuel_g_s[:, 0], f1 - (f2 - f1) * t1 / (t2 - t1))
-    assert eng.fuel_g_s[0, 0] == pytest.approx(0.1034, abs=1e-4)      # 1000 rpm, 0 N*m
+    assert eng.fuel_g_s[0, 0] == pytest.approx(0.1034, abs=1e-4)  # 1000 rpm, 0 N*m
 
 
 def test_machine_maps_replace_source_fills(lib, raw):
     mot, gen = lib.motor, lib.generator
     assert mot.speed_rad_s[0] == 0 and mot.torque_nm[0] == 0
-    np.testing.assert_array_equal(mot.efficiency[0], mot.efficiency[1])       # 0 rpm row = 500 rpm row
+    np.testing.assert_array_equal(mot.efficiency[0], mot.efficiency[1])  # 0 rpm row = 500 rpm row
     np.testing.assert_array_equal(mot.efficiency[:, 0], mot.efficiency[:, 1])  # 0 N*m column = 5 N*m
     raw = np.array(_raw(raw, "MC_PRIUS_JPN.yaml")["efficiency_map"])
-    np.testing.assert_array_equal(mot.efficiency[1:, 1:], raw[1:, 12:])       # measured part unchanged
+    np.testing.assert_array_equal(mot.efficiency[1:, 1:], raw[1:, 12:])  # measured part unchanged
     assert mot.efficiency.max() == pytest.approx(0.912) and gen.efficiency.max() == pytest.approx(0.8645)
     assert mot.max_torque_nm[0] == 305.0 and gen.max_torque_nm.max() == 55.0
     assert mot.peak_power_kw == pytest.approx(31.52, abs=0.01)  # torque curve linear between points
@@ -79,14 +80,16 @@ def test_battery_and_bodies(lib):
     assert b.name == "ESS_LI7_temp" and b.temperature_c == 41.0 and b.capacity_ah == pytest.approx(7.405)
     assert b.energy_wh() == pytest.approx(b.capacity_ah * b.mean_ocv_v())
     body, wheel = lib.body_conventional, lib.wheel_conventional
-    assert (body.drag_coefficient, body.frontal_area_m2, body.cg_height_m, wheel.radius_m) == (
-        0.19, 2.038, 0.4, 0.282)
+    assert (body.drag_coefficient, body.frontal_area_m2, body.cg_height_m, wheel.radius_m) == (0.19, 2.038, 0.4, 0.282)
     assert (lib.body_prius.drag_coefficient, lib.body_prius.frontal_area_m2, lib.wheel_prius.radius_m) == (
-        0.30, 1.746, 0.287)
+        0.30,
+        1.746,
+        0.287,
+    )
     assert lib.power_split.n_r == 78 and lib.power_split.n_s == 30 and lib.power_split.i0 == 3.93
     np.testing.assert_allclose(lib.gearbox.ratios, [13.195, 7.3486, 4.9126, 3.4916, 2.5984])
     assert lib.conventional_idle_rad_s == pytest.approx(800 * RPM)
-    assert lib.conventional_launch_rad_s == pytest.approx(1200 * RPM)   # PTC_CONV value for 800 rpm idle
+    assert lib.conventional_launch_rad_s == pytest.approx(1200 * RPM)  # PTC_CONV value for 800 rpm idle
 
 
 def test_nimh_battery_is_selectable(raw):
@@ -178,14 +181,32 @@ def test_raw_component_errors_name_the_file(tmp_path, raw):
 def test_study_tables(tmp_path, raw):
     t1 = read_baseline_table(raw / "paper" / "table1_baseline_vehicles.csv")
     conv, prius = t1["conventional"], t1["prius"]
-    assert conv == {"test_mass_kg": 1195.0, "p_eng_kw": 70.0, "drag_coefficient": 0.19,
-                    "frontal_area_m2": 2.038, "cg_height_m": 0.4, "wheel_radius_m": 0.282,
-                    "gear_ratios": [13.195, 7.3486, 4.9126, 3.4916, 2.5984]}
+    assert conv == {
+        "test_mass_kg": 1195.0,
+        "p_eng_kw": 70.0,
+        "drag_coefficient": 0.19,
+        "frontal_area_m2": 2.038,
+        "cg_height_m": 0.4,
+        "wheel_radius_m": 0.282,
+        "gear_ratios": [13.195, 7.3486, 4.9126, 3.4916, 2.5984],
+    }
     assert (prius["test_mass_kg"], prius["p_mot_kw"], prius["p_gen_kw"], prius["final_drive_ratio"]) == (
-        1404.0, 31.0, 15.0, 3.93)
+        1404.0,
+        31.0,
+        15.0,
+        3.93,
+    )
     row = read_paper_row(raw / "paper" / "l27_assignment.csv", "exp", 1)
-    assert row == {"exp": 1, "p_eng_kw": 50, "n_bat": 40, "p_mot_kw": 50, "p_gen_kw": 25, "n_r": 78,
-                   "n_s": 30, "i0": 3.93}
+    assert row == {
+        "exp": 1,
+        "p_eng_kw": 50,
+        "n_bat": 40,
+        "p_mot_kw": 50,
+        "p_gen_kw": 25,
+        "n_r": 78,
+        "n_s": 30,
+        "i0": 3.93,
+    }
     bad = tmp_path / "t1.csv"
     bad.write_text("parameter,unit,conventional\nvehicle_mass,kg,1195\n")
     with pytest.raises(ValueError, match="t1.csv: missing column 'prius'"):

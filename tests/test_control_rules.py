@@ -15,7 +15,7 @@ from hevlib.control import above, decide, rule_strengths, thresholds
 
 KEYS = ("soc_low", "soc_high", "grade_low", "grade_high", "speed_high_kmh", "torque_low", "torque_high")
 INPUTS = ("soc", "grade", "speed", "torque")
-SIZING_GRADE, FLAT_GRADE = 0.2, 0.0   # UDDS at 20 % grade (rise/run), flat cycles
+SIZING_GRADE, FLAT_GRADE = 0.2, 0.0  # UDDS at 20 % grade (rise/run), flat cycles
 
 
 def _below(t) -> float:
@@ -47,11 +47,17 @@ def lvl(pms) -> dict:
     """Crisp input levels per input, well outside the transition bands."""
     return {
         "soc": {"low": _below(pms.soc_low), "mid": _between(pms.soc_low, pms.soc_high), "high": _over(pms.soc_high)},
-        "grade": {"low": _below(pms.grade_low), "mid": _between(pms.grade_low, pms.grade_high),
-                  "high": _over(pms.grade_high)},
+        "grade": {
+            "low": _below(pms.grade_low),
+            "mid": _between(pms.grade_low, pms.grade_high),
+            "high": _over(pms.grade_high),
+        },
         "speed": {"low": _below(pms.speed_high_kmh), "high": _over(pms.speed_high_kmh)},
-        "torque": {"low": _below(pms.torque_low), "mid": _between(pms.torque_low, pms.torque_high),
-                   "high": _over(pms.torque_high)},
+        "torque": {
+            "low": _below(pms.torque_low),
+            "mid": _between(pms.torque_low, pms.torque_high),
+            "high": _over(pms.torque_high),
+        },
     }
 
 
@@ -92,14 +98,28 @@ def test_row_fires_alone_and_sets_engine(case, currently_on, lvl, th, pms):
 
 # (case in ROWS, input moved, new level on the other side of its threshold)
 CROSSINGS = [
-    ("1-torque-low", "soc", "mid"), ("1-torque-low", "grade", "low"), ("1-torque-low", "speed", "low"),
-    ("1-torque-low", "torque", "mid"), ("1-torque-high", "torque", "mid"),
-    ("2-soc-mid", "soc", "low"), ("2-soc-mid", "grade", "high"), ("2-soc-mid", "speed", "low"),
-    ("2-soc-mid", "torque", "low"), ("2-soc-mid", "torque", "high"),
-    ("3-torque-mid", "soc", "low"), ("3-torque-mid", "soc", "high"), ("3-torque-mid", "grade", "high"),
+    ("1-torque-low", "soc", "mid"),
+    ("1-torque-low", "grade", "low"),
+    ("1-torque-low", "speed", "low"),
+    ("1-torque-low", "torque", "mid"),
+    ("1-torque-high", "torque", "mid"),
+    ("2-soc-mid", "soc", "low"),
+    ("2-soc-mid", "grade", "high"),
+    ("2-soc-mid", "speed", "low"),
+    ("2-soc-mid", "torque", "low"),
+    ("2-soc-mid", "torque", "high"),
+    ("3-torque-mid", "soc", "low"),
+    ("3-torque-mid", "soc", "high"),
+    ("3-torque-mid", "grade", "high"),
     ("3-torque-mid", "speed", "high"),
-    ("4", "soc", "mid"), ("4", "grade", "mid"), ("4", "speed", "high"), ("4", "torque", "mid"),
-    ("5", "soc", "mid"), ("5", "grade", "mid"), ("5", "speed", "low"), ("5", "torque", "mid"),
+    ("4", "soc", "mid"),
+    ("4", "grade", "mid"),
+    ("4", "speed", "high"),
+    ("4", "torque", "mid"),
+    ("5", "soc", "mid"),
+    ("5", "grade", "mid"),
+    ("5", "speed", "low"),
+    ("5", "torque", "mid"),
 ]
 
 
@@ -135,9 +155,9 @@ def test_strengths_in_band_are_min_max_of_memberships(lvl, th, pms):
     for soc in np.linspace(s_lo.value - s_lo.width / 2, s_lo.value + s_lo.width / 2, 9):
         mu = above(soc, s_lo.value, s_lo.width)
         r = rule_strengths(soc, lvl["grade"]["mid"], lvl["speed"]["low"], lvl["torque"]["mid"], th)
-        assert r[2] == mu and r[5] == 1.0 - mu       # rule 3 (AND) and rule 6 (SOC < low)
+        assert r[2] == mu and r[5] == 1.0 - mu  # rule 3 (AND) and rule 6 (SOC < low)
     r = rule_strengths(s_lo.value, lvl["grade"]["mid"], lvl["speed"]["low"], lvl["torque"]["mid"], th)
-    assert r[2] == pytest.approx(0.5)                # SOC exactly at soc_low
+    assert r[2] == pytest.approx(0.5)  # SOC exactly at soc_low
     # rule 1's torque OR: at torque_low's value, max(1 - 0.5, above high = 0) = 0.5
     t_lo = pms.torque_low
     r = rule_strengths(lvl["soc"]["low"], lvl["grade"]["mid"], lvl["speed"]["high"], t_lo.value, th)
@@ -164,10 +184,14 @@ def _grid_max(grade, lvl, th) -> np.ndarray:
     return best
 
 
-@pytest.mark.parametrize("grade, never, can", [
-    (SIZING_GRADE, (2, 3, 4), (1, 5, 6, 7)),   # UDDS at 20 %: above grade_high
-    (FLAT_GRADE, (1, 5), (2, 3, 4, 6, 7)),     # flat: below grade_low
-], ids=["sizing-20pct", "flat"])
+@pytest.mark.parametrize(
+    "grade, never, can",
+    [
+        (SIZING_GRADE, (2, 3, 4), (1, 5, 6, 7)),  # UDDS at 20 %: above grade_high
+        (FLAT_GRADE, (1, 5), (2, 3, 4, 6, 7)),  # flat: below grade_low
+    ],
+    ids=["sizing-20pct", "flat"],
+)
 def test_rows_that_can_fire_on_cycle_grade(grade, never, can, lvl, th):
     best = _grid_max(grade, lvl, th)
     assert [best[r - 1] for r in never] == [0.0] * len(never)

@@ -25,19 +25,22 @@ def _csv(tmp_path, text: str, name: str = "CYC_BAD.csv"):
     return path
 
 
-@pytest.mark.parametrize("text, match", [
-    ("time_s,speed_kmh\n0,0\n2,10\n1,20\n3,0\n", r"time is not strictly increasing at line 4 \(t=1 s\)"),
-    ("time_s,speed_kmh\n0,0\n1,10\n1,20\n2,0\n", r"time is not strictly increasing at line 4"),
-    ("time_s,speed_kmh\n0,0\n1,-5\n2,0\n", r"negative speed at line 3 \(t=1 s\)"),
-    ("time_s,speed_kmh\n0,0\n1,\n2,0\n", r"speed is missing, NaN or infinite at line 3"),
-    ("time_s,speed_kmh\n0,0\n1,nan\n2,0\n", r"speed is missing, NaN or infinite at line 3"),
-    ("time_s,speed_kmh\n0,0\n,1\n2,0\n", r"time_s is missing, NaN or infinite at line 3"),
-    ("time_s\n0\n1\n", r"missing speed column, expected one of speed_kmh, speed_mps, speed_mph"),
-    ("t,speed_kmh\n0,0\n1,1\n", r"missing column 'time_s'"),
-    ("time_s,speed_fps\n0,0\n1,1\n", r"unknown unit in 'speed_fps'"),
-    ("time_s,speed_kmh\n0,0\n", r"needs at least two points"),
-    ("", r"not a readable CSV"),
-])
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("time_s,speed_kmh\n0,0\n2,10\n1,20\n3,0\n", r"time is not strictly increasing at line 4 \(t=1 s\)"),
+        ("time_s,speed_kmh\n0,0\n1,10\n1,20\n2,0\n", r"time is not strictly increasing at line 4"),
+        ("time_s,speed_kmh\n0,0\n1,-5\n2,0\n", r"negative speed at line 3 \(t=1 s\)"),
+        ("time_s,speed_kmh\n0,0\n1,\n2,0\n", r"speed is missing, NaN or infinite at line 3"),
+        ("time_s,speed_kmh\n0,0\n1,nan\n2,0\n", r"speed is missing, NaN or infinite at line 3"),
+        ("time_s,speed_kmh\n0,0\n,1\n2,0\n", r"time_s is missing, NaN or infinite at line 3"),
+        ("time_s\n0\n1\n", r"missing speed column, expected one of speed_kmh, speed_mps, speed_mph"),
+        ("t,speed_kmh\n0,0\n1,1\n", r"missing column 'time_s'"),
+        ("time_s,speed_fps\n0,0\n1,1\n", r"unknown unit in 'speed_fps'"),
+        ("time_s,speed_kmh\n0,0\n", r"needs at least two points"),
+        ("", r"not a readable CSV"),
+    ],
+)
 def test_malformed_cycle_gives_one_line_error_naming_file(tmp_path, text, match):
     path = _csv(tmp_path, text)
     with pytest.raises(CycleError, match=match) as info:
@@ -61,10 +64,10 @@ def test_units_are_converted_to_mps(tmp_path):
 def test_resampling_a_non_uniform_trace(tmp_path):
     path = _csv(tmp_path, "time_s,speed_mps\n10,0\n10.5,1\n12,4\n13.5,1\n", name="c.csv")
     cyc = load_cycle(path, name="c", step_s=1.0, grade=0.05)
-    np.testing.assert_allclose(cyc.time_s, [0, 1, 2, 3])                 # starts at 0, stops before 13.5 s
-    np.testing.assert_allclose(cyc.speed_mps, [0, 2.0, 4.0, 2.0])        # linear between raw points
+    np.testing.assert_allclose(cyc.time_s, [0, 1, 2, 3])  # starts at 0, stops before 13.5 s
+    np.testing.assert_allclose(cyc.speed_mps, [0, 2.0, 4.0, 2.0])  # linear between raw points
     np.testing.assert_allclose(cyc.grade, 0.05)
-    fine = load_cycle(path, name="c", step_s=0.5)                       # every raw point on the grid
+    fine = load_cycle(path, name="c", step_s=0.5)  # every raw point on the grid
     assert fine.n_steps == 8 and fine.dt_s == 0.5
     raw_t, raw_v = read_raw_cycle(path)
     assert fine.distance_m == pytest.approx(np.trapezoid(raw_v, raw_t), rel=1e-12)
@@ -90,7 +93,7 @@ def test_cycle_object_checks_its_invariants():
         Cycle("x", t, np.array([0, 1, -1, 0.0]), np.zeros(4))
     cyc = Cycle("x", t, np.array([0, 1, 2, 0.0]), np.zeros(4))
     with pytest.raises(ValueError):
-        cyc.speed_mps[0] = 5.0                                             # immutable arrays
+        cyc.speed_mps[0] = 5.0  # immutable arrays
 
 
 @pytest.fixture(scope="module")
@@ -115,7 +118,7 @@ def test_cycle_figures_match_the_source_metadata(cycles, params, root):
 
 
 def test_grades_come_from_params(cycles):
-    np.testing.assert_array_equal(cycles["udds"].grade, 0.2)          # sizing cycle: 20 % grade
+    np.testing.assert_array_equal(cycles["udds"].grade, 0.2)  # sizing cycle: 20 % grade
     for name in ("ftp", "hwfet", "us06", "nedc"):
         np.testing.assert_array_equal(cycles[name].grade, 0.0)
 
@@ -124,7 +127,7 @@ def test_ftp_soak_is_key_off(cycles):
     ftp = cycles["ftp"]
     off = ftp.time_s[~ftp.key_on]
     assert off[0] == 0.0 and off[1] == 1373.0 and off[-1] == 1972.0 and len(off) == 601
-    assert np.all(ftp.speed_mps[~ftp.key_on] == 0.0)                   # never moving with the key off
+    assert np.all(ftp.speed_mps[~ftp.key_on] == 0.0)  # never moving with the key off
     assert cycles["udds"].key_on.all()
     # FTP = UDDS, soak, first 505 s of UDDS again
     np.testing.assert_array_equal(ftp.speed_mps[:1370], cycles["udds"].speed_mps)

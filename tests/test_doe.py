@@ -105,7 +105,7 @@ class FakeSimulator:
         X = np.asarray(X, dtype=float)
         out = []
         for start in range(0, len(X), batch_size):
-            out.append(fake_responses(X[start:start + batch_size]))
+            out.append(fake_responses(X[start : start + batch_size]))
             if progress is not None:
                 progress(min(start + batch_size, len(X)), len(X))
         return pd.concat(out, ignore_index=True)
@@ -118,7 +118,9 @@ def fake_responses(X: np.ndarray) -> pd.DataFrame:
         "m_veh": 880 + 2.8 * X[:, 0] + 1.9 * X[:, 1] + 2.2 * X[:, 2] + 1.15 * X[:, 4],
         "fc": 4 + 3 * u[:, 0] - 1.5 * u[:, 3] + np.sin(2 * u[:, 4]),
         "accel_dev": 20 * np.exp(-2 * u[:, 0] - u[:, 1]),
-        "hc": 0.2 + 0.1 * u[:, 0] ** 2, "co": 0.8 + 0.3 * u[:, 3] * u[:, 0], "nox": 0.1 + 0.05 * u[:, 2],
+        "hc": 0.2 + 0.1 * u[:, 0] ** 2,
+        "co": 0.8 + 0.3 * u[:, 3] * u[:, 0],
+        "nox": 0.1 + 0.05 * u[:, 2],
         "e_l": np.maximum(0.0, 1.0 - 3 * u[:, 0] - 2 * u[:, 1]),
         "speed_dev": 0.25 * np.exp(-3 * u[:, 0]) + 0.04 * u[:, 5],
         "diff_soc": 0.05 * np.tanh(u[:, 4] - u[:, 6]),
@@ -143,8 +145,9 @@ def sizing_cycle() -> Cycle:
 def test_simulate_designs_builds_the_schema_and_reports_progress():
     X, src = doe.doe_designs("both", 13, 2, SPACE, L27)
     seen = []
-    table = doe.simulate_designs(FakeSimulator(), X, src, sizing_cycle(), batch_size=16,
-                                 progress=lambda d, t: seen.append((d, t)))
+    table = doe.simulate_designs(
+        FakeSimulator(), X, src, sizing_cycle(), batch_size=16, progress=lambda d, t: seen.append((d, t))
+    )
     assert seen == [(16, 40), (32, 40), (40, 40)]
     assert table.schema.equals(doe.DOE_SCHEMA, check_metadata=True)
     assert table.column_names == list(DESIGN_VARS) + list(RESPONSES) + ["source"]

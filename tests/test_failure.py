@@ -55,7 +55,7 @@ def test_a_design_that_cannot_start_on_the_grade_is_flagged_stalled(sim, cycles,
     # every cycle objective of the failure is at least as bad as that of every working L27 design
     _, y = l27
     working = y[~y["stalled"]]
-    assert len(working) == len(y)                                  # the L27 designs all move now
+    assert len(working) == len(y)  # the L27 designs all move now
     for k in CYCLE_OBJECTIVES:
         assert r.loc[0, k] >= working[k].max(), k
     assert r.loc[0, "speed_dev"] == 1.0 and r.loc[0, "eta_drivetrain"] == 0.0
@@ -67,7 +67,7 @@ def test_l27_design_25_restarts_its_engine_and_keeps_moving(l27):
     X, y = l27
     assert X[24, DESIGN_VARS.index("n_r")] == 78 and X[24, DESIGN_VARS.index("n_s")] == 18
     assert not y.loc[24, "stalled"] and y.loc[24, "accessory_unmet_kwh"] == 0.0
-    assert y.loc[24, "e_l"] < 0.9 * 11.99            # drives a real share of the cycle
+    assert y.loc[24, "e_l"] < 0.9 * 11.99  # drives a real share of the cycle
 
 
 def test_engine_min_speed_is_the_maps_lowest_and_lets_k_433_run_at_standstill(sim, lib):
@@ -76,9 +76,10 @@ def test_engine_min_speed_is_the_maps_lowest_and_lets_k_433_run_at_standstill(si
     assert ps.engine_min_on_speed_rad_s == pytest.approx(1000 * np.pi / 30)
     row = sim._rows(STALLS[None, :], "hybrid")[0]
     from hevlib.drive import split_design
+
     d = split_design(row, sim._cfg["hybrid"])
     lo, hi = split.engine_window(0.0, d)
-    assert lo <= hi                                   # 5500 rpm / (1 + 78/18) = 1031 rpm >= 1000 rpm
+    assert lo <= hi  # 5500 rpm / (1 + 78/18) = 1031 rpm >= 1000 rpm
 
 
 def test_random_designs_no_nan_every_non_mover_flagged_and_e_l_not_speed_dev_rescaled(sim, cycles, params):
@@ -91,7 +92,7 @@ def test_random_designs_no_nan_every_non_mover_flagged_and_e_l_not_speed_dev_res
     assert not r.loc[r["stalled"], "cycle_met"].any()
     moving = r["speed_dev"] > 0
     ratio = r.loc[moving, "e_l"] / r.loc[moving, "speed_dev"]
-    assert ratio.std() / ratio.mean() > 0.1           # two objectives, not one rescaled
+    assert ratio.std() / ratio.mean() > 0.1  # two objectives, not one rescaled
 
 
 # ------------------------------------------------------------------------------ no load dropped
@@ -114,7 +115,7 @@ def test_accessory_energy_is_served_or_booked_unmet_never_dropped(sim, cycles, p
     np.testing.assert_allclose(r["accessory_unmet_kwh"], o["e_acc_unmet_j"] / 3.6e6)
     assert not r.loc[unmet, "cycle_met"].any()
     if cycle == "udds":
-        assert unmet.any()                            # some designs really cannot power their accessories
+        assert unmet.any()  # some designs really cannot power their accessories
 
 
 # ----------------------------------------------------------------------------- response meaning
@@ -172,11 +173,22 @@ class SimulatorSurrogate:
 
 
 #: A corner of the design space where about a quarter of the designs stall on the sizing cycle.
-WEAK_CORNER = DesignSpace.from_bounds({"p_eng_kw": (25, 70), "p_mot_kw": (20, 40), "p_gen_kw": (5, 15),
-                                       "i0": (2.0, 2.6), "n_bat": (10, 20), "n_r": (70, 90), "n_s": (18, 22)})
-TINY = {"nsga3": AlgoParams(pop_size=16, n_gen=3, seed=1, ref_dirs_partitions=[1]),
-        "moead": AlgoParams(pop_size=16, n_gen=3, seed=2, n_neighbors=4, norm_samples=40),
-        "moga": AlgoParams(pop_size=16, n_gen=3, seed=3, n_weights=11, norm_samples=40, surrogate="regression")}
+WEAK_CORNER = DesignSpace.from_bounds(
+    {
+        "p_eng_kw": (25, 70),
+        "p_mot_kw": (20, 40),
+        "p_gen_kw": (5, 15),
+        "i0": (2.0, 2.6),
+        "n_bat": (10, 20),
+        "n_r": (70, 90),
+        "n_s": (18, 22),
+    }
+)
+TINY = {
+    "nsga3": AlgoParams(pop_size=16, n_gen=3, seed=1, ref_dirs_partitions=[1]),
+    "moead": AlgoParams(pop_size=16, n_gen=3, seed=2, n_neighbors=4, norm_samples=40),
+    "moga": AlgoParams(pop_size=16, n_gen=3, seed=3, n_weights=11, norm_samples=40, surrogate="regression"),
+}
 
 
 @pytest.mark.parametrize("algo", ALGORITHMS)
@@ -187,16 +199,16 @@ def test_a_stalled_design_is_infeasible_to_every_optimiser(sim, cycles, algo):
     assert G[0, problem.constraint_names.index("stalled")] > 0
     assert G[1, problem.constraint_names.index("stalled")] < 0
     front = optimise(problem, algo, TINY[algo])
-    assert oracle.seen_stalled > 0                    # the search did meet stalled designs ...
+    assert oracle.seen_stalled > 0  # the search did meet stalled designs ...
     assert len(front) > 0
-    assert not sim.run(front.X, cycles["udds"])["stalled"].any()   # ... and none reached the front
+    assert not sim.run(front.X, cycles["udds"])["stalled"].any()  # ... and none reached the front
 
 
 def test_stalled_designs_never_reach_a_front_table_or_the_picks(sim, cycles):
     """Surrogate-assisted path: the surrogate cannot see a stall, the true model can; re-simulation drops it."""
     cyc = cycles["udds"]
 
-    class Flattering:                               # predicts the stalled design as the best on every objective
+    class Flattering:  # predicts the stalled design as the best on every objective
         def predict(self, X):
             Y = np.tile(np.array([1100.0, 3.0, 0.0, 0.1, 0.5, 0.1, 0.0, 0.0, 0.0, 200.0, 4.0]), (len(X), 1))
             stalls = np.all(np.isclose(X, STALLS), axis=1)
@@ -205,8 +217,10 @@ def test_stalled_designs_never_reach_a_front_table_or_the_picks(sim, cycles):
 
     problem = HevProblem(Flattering(), sim.space, sim.mass_kg, 1195.0)
     from hevlib.optimise import Front
-    front = Front("nsga3", np.vstack([STALLS, WORKS]), Flattering().predict(np.vstack([STALLS, WORKS])), None,
-                  2, 0.0, 2, 0)
+
+    front = Front(
+        "nsga3", np.vstack([STALLS, WORKS]), Flattering().predict(np.vstack([STALLS, WORKS])), None, 2, 0.0, 2, 0
+    )
     kept, resim, n = drop_stalled(front, sim.run(front.X, cyc))
     assert n == 1 and len(kept) == 1 and np.allclose(kept.X[0], WORKS) and not resim["stalled"].any()
     # the screen removes a stalled design and the pick never contains one
@@ -219,8 +233,9 @@ def test_stalled_designs_never_reach_a_front_table_or_the_picks(sim, cycles):
     table[["n_bat", "n_r", "n_s"]] = table[["n_bat", "n_r", "n_s"]].astype(np.int64)
     rules = screening_rules(sim.params.screen)
     assert not [r for r in rules if r.name == "not_stalled"][0].check(table)[0]
-    screen = sim.params.screen.model_copy(update={"speed_dev_max": 1.0, "n_keep": 2, "n_pick": 1,
-                                                  "gen_below_motor": False, "buildable_gear_set": False})
+    screen = sim.params.screen.model_copy(
+        update={"speed_dev_max": 1.0, "n_keep": 2, "n_pick": 1, "gen_below_motor": False, "buildable_gear_set": False}
+    )
     res = select_designs({"nsga3": table}, screen)
     stalled_ids = set(res.merged.loc[res.merged["sim_stalled"], "design_id"])
     assert len(stalled_ids) == 1 and not stalled_ids & set(res.selected["design_id"])
@@ -230,9 +245,10 @@ def test_stalled_designs_never_reach_a_front_table_or_the_picks(sim, cycles):
 
 def test_optimise_and_resimulate_reports_the_stalled_it_dropped(sim, cycles):
     oracle = SimulatorSurrogate(sim, cycles["udds"])
-    problem = HevProblem(oracle, WEAK_CORNER, sim.mass_kg, 1195.0)          # no stall constraint: surrogate path
+    problem = HevProblem(oracle, WEAK_CORNER, sim.mass_kg, 1195.0)  # no stall constraint: surrogate path
     from hevlib.indicators import Normalisation
     from hevlib.optimise import HvSettings
+
     hv = HvSettings(Normalisation(np.zeros(11), np.ones(11) * 1e3), 1.1, 2000, 0)
     res = optimise_and_resimulate(problem, "nsga3", TINY["nsga3"], lambda X: sim.run(X, cycles["udds"]), hv)
     assert "n_stalled_dropped" in res.report
@@ -251,7 +267,7 @@ def test_spun_engine_is_motored_with_its_fuel_cut(sim, cycles):
     w_g_max = sim._cfg["prius"].w_g_max
     assert (tr.loc[spun, "w_gen_rad_s"].abs() <= w_g_max * (1 + 1e-9)).all()
     braking = (tr["f_pt_n"] < -1e-6) | (tr["f_brake_n"] < -1e-6)
-    assert braking.sum() > 10 and (braking & (tr["eng_on"] == 1)).sum() == 0   # never fired while braking
+    assert braking.sum() > 10 and (braking & (tr["eng_on"] == 1)).sum() == 0  # never fired while braking
 
 
 def test_regenerative_share_follows_each_wheel_file(sim, cycles, lib):
@@ -265,7 +281,7 @@ def test_regenerative_share_follows_each_wheel_file(sim, cycles, lib):
         share = tr.loc[brk, "f_pt_n"] / (tr.loc[brk, "f_pt_n"] + tr.loc[brk, "f_brake_n"])
         allowed = wheel.driveline_brake_share(v_mean[brk].to_numpy())
         assert (share <= allowed + 1e-6).all()
-        assert np.isclose(share, allowed, atol=1e-6).mean() > 0.5       # mostly the table, not the machine, limits
+        assert np.isclose(share, allowed, atol=1e-6).mean() > 0.5  # mostly the table, not the machine, limits
     assert lib.wheel_prius.driveline_brake_share(50 / 3.6) == pytest.approx(0.5)
     assert lib.wheel_prius.driveline_brake_share(8.045 / 3.6) == pytest.approx(0.25, rel=1e-3)
     assert lib.wheel_conventional.driveline_brake_share(96.56064 / 3.6) == pytest.approx(0.8)
@@ -281,10 +297,13 @@ def test_rotor_inertias_reflect_through_the_gear_set(sim, lib):
     cfg = sim._cfg["prius"]
     row = sim._rows(None, "prius")[0]
     r, i0, k = cfg.r, 3.93, 78 / 30
-    expected = 1404 + lib.wheel_prius.inertia_kg_m2 / r**2 + (
-        row[1] * lib.motor.inertia_kg_m2 + k**2 * row[2] * lib.generator.inertia_kg_m2) * (i0 / r) ** 2
+    expected = (
+        1404
+        + lib.wheel_prius.inertia_kg_m2 / r**2
+        + (row[1] * lib.motor.inertia_kg_m2 + k**2 * row[2] * lib.generator.inertia_kg_m2) * (i0 / r) ** 2
+    )
     assert split_equivalent_mass_kg(row, cfg) == pytest.approx(expected)
-    assert 1.04 < expected / 1404 < 1.07                     # the old constant 1.05 was about right for the Prius
+    assert 1.04 < expected / 1404 < 1.07  # the old constant 1.05 was about right for the Prius
     # the conventional car: the engine reflects through the gear in use (about +20 % in first)
     cc, conv = sim._cfg["conventional"], sim._conv
     first = conventional_equivalent_mass_kg(1195.0, 13.195, True, conv.s_eng, cc) / 1195.0 - 1

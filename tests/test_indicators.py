@@ -34,7 +34,7 @@ def test_mc_hypervolume_is_seeded_and_exact_for_a_box():
 
 
 def test_mc_hypervolume_ignores_points_beyond_the_reference_and_dominated_points():
-    F = np.array([[0.2, 0.2], [0.5, 0.5], [1.5, 0.0]])   # 2nd dominated, 3rd beyond the reference
+    F = np.array([[0.2, 0.2], [0.5, 0.5], [1.5, 0.0]])  # 2nd dominated, 3rd beyond the reference
     exact = hypervolume_exact(F, 1.0)
     assert exact == pytest.approx(0.64)
     est, se = hypervolume_mc(F, 1.0, n_samples=20_000, seed=0)
@@ -54,7 +54,7 @@ def test_normalisation_maps_ideal_to_zero_nadir_to_one_and_keeps_constant_object
     norm = Normalisation.from_points(F)
     Z = norm(F)
     np.testing.assert_allclose(Z[:, :2], [[0, 0], [1, 1], [0.5, 0.5]])
-    np.testing.assert_allclose(Z[:, 2], 0.0)      # constant objective: span 1, so 0 at the ideal
+    np.testing.assert_allclose(Z[:, 2], 0.0)  # constant objective: span 1, so 0 at the ideal
     assert norm(np.array([[1.0, 10.0, 6.0]]))[0, 2] == 1.0
     with pytest.raises(ValueError, match="nadir below ideal"):
         Normalisation(np.array([1.0]), np.array([0.0]))

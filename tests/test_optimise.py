@@ -43,8 +43,17 @@ from hevlib.params import AlgoParams
 from hevlib.pareto import nondominated_mask
 
 ROOT = Path(__file__).resolve().parents[1]
-SPACE = DesignSpace.from_bounds({"p_eng_kw": (25, 70), "p_mot_kw": (20, 60), "p_gen_kw": (5, 30), "i0": (2, 4.5),
-                                 "n_bat": (10, 60), "n_r": (50, 90), "n_s": (18, 40)})
+SPACE = DesignSpace.from_bounds(
+    {
+        "p_eng_kw": (25, 70),
+        "p_mot_kw": (20, 60),
+        "p_gen_kw": (5, 30),
+        "i0": (2, 4.5),
+        "n_bat": (10, 60),
+        "n_r": (50, 90),
+        "n_s": (18, 40),
+    }
+)
 M_MAX_KG = 1195.0
 I = {k: j for j, k in enumerate(DESIGN_VARS)}
 
@@ -53,8 +62,13 @@ I = {k: j for j, k in enumerate(DESIGN_VARS)}
 def stand_in_mass_kg(X: np.ndarray) -> np.ndarray:
     """Linear mass model: 1000 kg + engine, machines, modules; 1111-1283 kg over the box, so the limit bites."""
     X = np.asarray(X, dtype=float)
-    return 1000.0 + 1.6 * X[:, I["p_eng_kw"]] + 0.9 * X[:, I["p_mot_kw"]] + 0.9 * X[:, I["p_gen_kw"]] \
+    return (
+        1000.0
+        + 1.6 * X[:, I["p_eng_kw"]]
+        + 0.9 * X[:, I["p_mot_kw"]]
+        + 0.9 * X[:, I["p_gen_kw"]]
         + 1.5 * X[:, I["n_bat"]]
+    )
 
 
 class AnalyticSurrogate:
@@ -68,19 +82,21 @@ class AnalyticSurrogate:
         pe, pm, pg, i0, nb, nr, ns = X.T
         m = stand_in_mass_kg(X)
         p = pe + pm
-        return np.column_stack([
-            m,                                                     # m_veh
-            2.0 + 0.06 * pe + 0.002 * m - 0.015 * nb,              # fc
-            60.0 * np.exp(-p / 35.0),                              # accel_dev
-            0.02 + 0.003 * pe,                                     # hc
-            0.2 + 0.02 * pe + 0.002 * (i0 - 3.0) ** 2,             # co
-            0.05 + 0.004 * pe + 0.001 * pm,                        # nox
-            np.maximum(0.0, 4.0 - p / 25.0),                       # e_l
-            25.0 * np.exp(-p / 30.0) + 0.5 * np.abs(i0 - 3.5),     # speed_dev
-            0.12 - 0.002 * pg - 0.001 * nb,                        # diff_soc
-            90.0 + 0.9 * p - 10.0 * (i0 - 2.0) + 0.5 * nr / ns,    # v_max
-            1.0 + pm * i0 / (m / 12.0),                            # f_max
-        ])
+        return np.column_stack(
+            [
+                m,  # m_veh
+                2.0 + 0.06 * pe + 0.002 * m - 0.015 * nb,  # fc
+                60.0 * np.exp(-p / 35.0),  # accel_dev
+                0.02 + 0.003 * pe,  # hc
+                0.2 + 0.02 * pe + 0.002 * (i0 - 3.0) ** 2,  # co
+                0.05 + 0.004 * pe + 0.001 * pm,  # nox
+                np.maximum(0.0, 4.0 - p / 25.0),  # e_l
+                25.0 * np.exp(-p / 30.0) + 0.5 * np.abs(i0 - 3.5),  # speed_dev
+                0.12 - 0.002 * pg - 0.001 * nb,  # diff_soc
+                90.0 + 0.9 * p - 10.0 * (i0 - 2.0) + 0.5 * nr / ns,  # v_max
+                1.0 + pm * i0 / (m / 12.0),  # f_max
+            ]
+        )
 
     def predict_std(self, X: np.ndarray) -> np.ndarray:
         return 0.02 * np.abs(self.predict(X)) + 1e-3
@@ -134,10 +150,13 @@ def _dtlz2_reference(m: int) -> tuple[np.ndarray, float]:
     return ref, igd(1.1 * spread, ref)
 
 
-@pytest.mark.parametrize("algo,settings", [
-    ("nsga3", AlgoParams(pop_size=4, n_gen=150, seed=1, ref_dirs_partitions=[4])),
-    ("moead", AlgoParams(pop_size=70, n_gen=150, seed=1, n_neighbors=10, norm_samples=200)),
-])
+@pytest.mark.parametrize(
+    "algo,settings",
+    [
+        ("nsga3", AlgoParams(pop_size=4, n_gen=150, seed=1, ref_dirs_partitions=[4])),
+        ("moead", AlgoParams(pop_size=70, n_gen=150, seed=1, n_neighbors=10, norm_samples=200)),
+    ],
+)
 def test_wrapper_converges_on_dtlz2_with_five_objectives(algo, settings):
     problem = get_problem("dtlz2", n_var=14, n_obj=5)
     ref, bar = _dtlz2_reference(5)
@@ -153,16 +172,16 @@ def test_moga_gives_a_spread_converged_front_on_zdt1():
     problem = get_problem("zdt1", n_var=10)
     front = moga(problem, AlgoParams(pop_size=40, n_gen=100, seed=3, n_weights=10, norm_samples=200))
     f1, f2 = front.F.T
-    assert len(front) >= 6                                  # one point per weight, not one point
-    assert f1.max() - f1.min() > 0.8                        # spread over the front
-    inner = f1 > 1e-6                                       # ZDT1's optimum: f2 = 1 - sqrt(f1)
+    assert len(front) >= 6  # one point per weight, not one point
+    assert f1.max() - f1.min() > 0.8  # spread over the front
+    inner = f1 > 1e-6  # ZDT1's optimum: f2 = 1 - sqrt(f1)
     assert np.all(np.abs(f2[inner] - (1 - np.sqrt(f1[inner]))) < 0.05)
     assert nondominated_mask(front.F).all()
 
 
 def test_weighted_sum_ranks_put_feasible_first_then_the_weighted_sum():
     F = np.array([[0.0, 1.0], [1.0, 0.0], [0.4, 0.4], [-1.0, -1.0]])
-    cv = np.array([0.0, 0.0, 0.0, 0.5])                     # the last is best but infeasible
+    cv = np.array([0.0, 0.0, 0.0, 0.5])  # the last is best but infeasible
     R = weighted_sum_ranks(F, cv, np.array([[1.0, 0.0], [0.0, 1.0], [0.5, 0.5]]))
     np.testing.assert_array_equal(R[:, 0], [0, 2, 1, 3])
     np.testing.assert_array_equal(R[:, 1], [2, 0, 1, 3])
@@ -194,11 +213,11 @@ def test_reference_directions():
     two_layer = reference_directions(11, partitions=[2, 1])
     assert two_layer.shape == (77, 11)
     np.testing.assert_allclose(two_layer.sum(axis=1), 1.0)
-    assert np.sum(np.all(two_layer > 0, axis=1)) == 11          # the inner layer lies inside the simplex
+    assert np.sum(np.all(two_layer > 0, axis=1)) == 11  # the inner layer lies inside the simplex
     energy = reference_directions(11, n_points=24, seed=2)
     assert energy.shape == (24, 11) and np.all(energy >= 0)
     np.testing.assert_allclose(energy.sum(axis=1), 1.0)
-    np.testing.assert_array_equal(energy, _riesz_directions.__wrapped__(11, 24, 2))   # seeded, not only cached
+    np.testing.assert_array_equal(energy, _riesz_directions.__wrapped__(11, 24, 2))  # seeded, not only cached
     with pytest.raises(ValueError, match="cannot cover 11 objectives"):
         reference_directions(11, n_points=5)
 
@@ -208,10 +227,10 @@ def test_fronts_are_integer_feasible_nondominated_and_consistent(hev_fronts, alg
     front = hev_fronts[algo]
     assert front.algo == algo and len(front) >= 5
     Xi = front.X[:, INTEGER_MASK]
-    np.testing.assert_array_equal(Xi, np.round(Xi))                             # integers in every output
+    np.testing.assert_array_equal(Xi, np.round(Xi))  # integers in every output
     assert np.all(front.X >= SPACE.lower) and np.all(front.X <= SPACE.upper)
-    assert np.all(stand_in_mass_kg(front.X) <= 1180.0)                          # exact mass constraint
-    np.testing.assert_allclose(front.F, AnalyticSurrogate().predict(front.X))   # natural units
+    assert np.all(stand_in_mass_kg(front.X) <= 1180.0)  # exact mass constraint
+    np.testing.assert_allclose(front.F, AnalyticSurrogate().predict(front.X))  # natural units
     np.testing.assert_allclose(front.std, AnalyticSurrogate().predict_std(front.X))
     assert nondominated_mask(to_minimisation(front.F)).all()
     assert len(np.unique(front.X, axis=0)) == len(front)
@@ -229,8 +248,15 @@ def test_the_mass_limit_shapes_the_front(hev_fronts):
 @pytest.mark.parametrize("algo", ALGORITHMS)
 def test_screen_rules_as_constraints_hold_on_every_front_design(algo):
     """Speed deviation (predicted), generator below motor and buildable planetary sets, in every front."""
-    problem = HevProblem(AnalyticSurrogate(), SPACE, stand_in_mass_kg, 1180.0, speed_dev_max=2.0,
-                         gen_below_motor=True, buildable_gear_set=True)
+    problem = HevProblem(
+        AnalyticSurrogate(),
+        SPACE,
+        stand_in_mass_kg,
+        1180.0,
+        speed_dev_max=2.0,
+        gen_below_motor=True,
+        buildable_gear_set=True,
+    )
     assert problem.constraint_names == ["mass", "speed_dev", "gen_below_motor"]
     front = optimise(problem, algo, SMALL[algo])
     assert len(front) >= 3
@@ -244,9 +270,9 @@ def test_screen_rules_as_constraints_hold_on_every_front_design(algo):
 def test_gear_set_repair_snaps_to_the_nearest_buildable_ratio():
     pairs = buildable_gear_sets(SPACE)
     assert len(pairs) > 10 and gear_set_buildable(pairs[:, 0], pairs[:, 1]).all()
-    assert [78, 30] in pairs.tolist()                                   # the Prius set
+    assert [78, 30] in pairs.tolist()  # the Prius set
     n_r, n_s = nearest_gear_set(np.array([78.0, 77.0]), np.array([30.0, 30.0]), pairs)
-    np.testing.assert_array_equal(n_r, [78, 72])        # a buildable set stays; 77/30 = 2.567 -> 72/28 = 2.571
+    np.testing.assert_array_equal(n_r, [78, 72])  # a buildable set stays; 77/30 = 2.567 -> 72/28 = 2.571
     np.testing.assert_array_equal(n_s, [30, 28])
     # the ratio moves least: every snapped set is the pair of closest n_r / n_s
     rng = np.random.default_rng(0)
@@ -286,15 +312,19 @@ def _hv_settings() -> HvSettings:
     rng = np.random.default_rng(0)
     X = SPACE.lower + rng.random((300, 7)) * (SPACE.upper - SPACE.lower)
     X[:, INTEGER_MASK] = np.round(X[:, INTEGER_MASK])
-    return HvSettings(Normalisation.from_points(to_minimisation(stand_in_simulate(X)[list(OBJECTIVES)])),
-                      reference=1.1, n_samples=20_000, seed=7)
+    return HvSettings(
+        Normalisation.from_points(to_minimisation(stand_in_simulate(X)[list(OBJECTIVES)])),
+        reference=1.1,
+        n_samples=20_000,
+        seed=7,
+    )
 
 
 def test_table_and_report_follow_the_contract(tmp_path):
     result = optimise_and_resimulate(hev_problem(), "nsga3", SMALL["nsga3"], stand_in_simulate, _hv_settings())
     table, report = result.table, result.report
     direct = stand_in_simulate(result.front.X)
-    for k in RESPONSES:                                          # re-simulated == a direct call
+    for k in RESPONSES:  # re-simulated == a direct call
         np.testing.assert_array_equal(table[f"sim_{k}"].to_numpy(), direct[k].to_numpy())
     pred = AnalyticSurrogate().predict(result.front.X)
     for j, k in enumerate(OBJECTIVES):
@@ -302,14 +332,20 @@ def test_table_and_report_follow_the_contract(tmp_path):
         assert f"pred_{k}_std" in table
     Fs = to_minimisation(direct[list(OBJECTIVES)].to_numpy())
     np.testing.assert_array_equal(table["nondominated_sim"].to_numpy(), nondominated_mask(Fs))
-    assert 0 < table["nondominated_sim"].mean() < 1              # the stand-in's error demotes some designs
+    assert 0 < table["nondominated_sim"].mean() < 1  # the stand-in's error demotes some designs
     np.testing.assert_allclose(table["m_veh_exact_kg"], stand_in_mass_kg(result.front.X))
     assert table["feasible"].all()
 
-    for key in ("front_size", "n_evaluations", "hypervolume", "hypervolume_se",
-                "share_nondominated_after_resim", "surrogate_error"):
+    for key in (
+        "front_size",
+        "n_evaluations",
+        "hypervolume",
+        "hypervolume_se",
+        "share_nondominated_after_resim",
+        "surrogate_error",
+    ):
         assert key in report
-    assert not any("runtime" in key for key in report)           # a metric: no wall times
+    assert not any("runtime" in key for key in report)  # a metric: no wall times
     assert result.runtimes["runtime_s"] > 0 and result.runtimes["runtime_total_s"] >= result.runtimes["runtime_s"]
     assert report["front_size"] == len(table)
     assert report["share_nondominated_after_resim"] == pytest.approx(table["nondominated_sim"].mean())
@@ -319,7 +355,7 @@ def test_table_and_report_follow_the_contract(tmp_path):
     assert err["bias"] == pytest.approx(e.mean()) and err["mae"] == pytest.approx(e.abs().mean())
     assert report["surrogate_error"]["m_veh"]["rmse"] > 0
     assert set(report["surrogate_misleads_most"]) <= set(OBJECTIVES)
-    assert report["settings"]["pop_size"] == 77                  # rounded up to the 77 directions
+    assert report["settings"]["pop_size"] == 77  # rounded up to the 77 directions
 
     path = tmp_path / "nsga3.parquet"
     write_parquet(path, table, result.schema)

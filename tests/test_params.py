@@ -42,16 +42,13 @@ BAD = [
     ("cycles.step_s", "fast", "cycles.step_s: Input should be a valid number"),
     ("baseline.prius.n_bat", 2.5, "baseline.prius.n_bat: Input should be a valid integer"),
     ("cycles.step_s", 0.0, "cycles.step_s: Input should be greater than 0"),
-    ("cycles.cycles.udds.grade_pct", 45.0,
-     "cycles.cycles.udds.grade_pct: Input should be less than or equal to 30"),
-    ("baseline.conventional.test_mass_kg", -5,
-     "baseline.conventional.test_mass_kg: Input should be greater than 500"),
+    ("cycles.cycles.udds.grade_pct", 45.0, "cycles.cycles.udds.grade_pct: Input should be less than or equal to 30"),
+    ("baseline.conventional.test_mass_kg", -5, "baseline.conventional.test_mass_kg: Input should be greater than 500"),
     ("baseline.battery", "lead_acid", "baseline.battery: Input should be 'li_ion' or 'nimh'"),
     ("cycles.sizing", "wltp", "cycles.sizing: 'wltp' is not one of cycles.cycles"),
     ("baseline.prius.n_s", 80, "baseline.prius.n_s: 80 sun teeth must be fewer than n_r = 78"),
     ("cycles.cycles.udds.file", "udds.txt", "cycles.cycles.udds.file: String should match pattern"),
-    ("baseline.conventional.upshift_kmh", [40.0, 24.0, 64.0, 75.0],
-     "baseline.conventional.upshift_kmh: speeds"),
+    ("baseline.conventional.upshift_kmh", [40.0, 24.0, 64.0, 75.0], "baseline.conventional.upshift_kmh: speeds"),
 ]
 
 
@@ -80,21 +77,22 @@ def test_bad_cycle_name_and_file_errors(raw_params, tmp_path):
 
 
 @pytest.mark.parametrize("stage", ["cycles", "components"])
-@pytest.mark.parametrize("key, value, expect", [
-    ("cycles.typo", 1, "cycles.typo: unknown key"),
-    ("baseline.conventional.p_eng_kw", "seventy",
-     "baseline.conventional.p_eng_kw: Input should be a valid number"),
-    ("cycles.step_s", 60.0, "cycles.step_s: Input should be less than or equal to 10"),
-])
-def test_stage_stops_on_bad_params_and_writes_nothing(raw_params, tmp_path, monkeypatch, stage, key, value,
-                                                      expect):
+@pytest.mark.parametrize(
+    "key, value, expect",
+    [
+        ("cycles.typo", 1, "cycles.typo: unknown key"),
+        ("baseline.conventional.p_eng_kw", "seventy", "baseline.conventional.p_eng_kw: Input should be a valid number"),
+        ("cycles.step_s", 60.0, "cycles.step_s: Input should be less than or equal to 10"),
+    ],
+)
+def test_stage_stops_on_bad_params_and_writes_nothing(raw_params, tmp_path, monkeypatch, stage, key, value, expect):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "bad.yaml").write_text(yaml.safe_dump(_with(raw_params, key, value)))
     result = CliRunner().invoke(app, [stage, "--params", "bad.yaml"])
     assert result.exit_code == 1
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"error: bad.yaml: {expect}"), lines
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.yaml"]      # no data/, no reports/
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.yaml"]  # no data/, no reports/
 
 
 def test_stage_stops_on_missing_inputs_and_writes_nothing(raw_params, tmp_path, monkeypatch):

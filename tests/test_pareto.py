@@ -38,10 +38,13 @@ def synthetic_front(n: int, seed: int, objectives=OBJECTIVES) -> pd.DataFrame:
     rng = np.random.default_rng(seed)
     n_r = rng.integers(50, 91, n)
     cols = {
-        "p_eng_kw": rng.uniform(25, 70, n), "p_mot_kw": rng.uniform(20, 60, n),
+        "p_eng_kw": rng.uniform(25, 70, n),
+        "p_mot_kw": rng.uniform(20, 60, n),
         "p_gen_kw": rng.uniform(5, 30, n),
-        "i0": rng.uniform(2, 4.5, n), "n_bat": rng.integers(10, 61, n),
-        "n_r": n_r, "n_s": np.minimum(rng.integers(18, 41, n), n_r - 2),   # int64, as the fronts store them
+        "i0": rng.uniform(2, 4.5, n),
+        "n_bat": rng.integers(10, 61, n),
+        "n_r": n_r,
+        "n_s": np.minimum(rng.integers(18, 41, n), n_r - 2),  # int64, as the fronts store them
     }
     df = pd.DataFrame(cols)
     for k in objectives:
@@ -75,7 +78,7 @@ def brute_nondominated(F: np.ndarray) -> np.ndarray:
 def test_nondominated_matches_brute_force_with_ties_and_duplicates(m):
     rng = np.random.default_rng(m)
     F = rng.integers(0, 4, size=(150, m)).astype(float)  # few levels: many ties
-    F = np.vstack([F, F[:20]])                            # exact duplicates
+    F = np.vstack([F, F[:20]])  # exact duplicates
     got = nondominated_mask(F)
     np.testing.assert_array_equal(got, brute_nondominated(F))
     assert 0 < got.sum() < len(F)
@@ -104,15 +107,15 @@ def test_objective_matrix_negates_maximised_objectives():
 def test_merge_keeps_one_row_per_design_and_every_algorithm():
     a, b = synthetic_front(6, 1), synthetic_front(4, 2)
     b.iloc[2, :] = a.iloc[3, :].to_numpy()
-    b.loc[2, "p_eng_kw"] = a.loc[3, "p_eng_kw"] + 1e-12          # equal after rounding
-    b.loc[2, "pred_fc"] = 99.0                                   # the other surrogate's prediction
-    a2 = pd.concat([a, a.iloc[[0]]], ignore_index=True)          # a duplicate within one front
+    b.loc[2, "p_eng_kw"] = a.loc[3, "p_eng_kw"] + 1e-12  # equal after rounding
+    b.loc[2, "pred_fc"] = 99.0  # the other surrogate's prediction
+    a2 = pd.concat([a, a.iloc[[0]]], ignore_index=True)  # a duplicate within one front
     merged = merge_fronts({"nsga3": a2, "moead": b})
     assert len(merged) == 6 + 4 - 1
     assert merged["design_id"].is_unique
     row = merged[merged["design_id"] == "nsga3-3"].iloc[0]
     assert row["algo"] == "nsga3+moead" and row["sources"] == "nsga3-3+moead-2" and row["n_sources"] == 2
-    assert row["pred_fc"] == a.loc[3, "pred_fc"]                 # first source's prediction
+    assert row["pred_fc"] == a.loc[3, "pred_fc"]  # first source's prediction
     first = merged[merged["design_id"] == "nsga3-0"].iloc[0]
     assert first["algo"] == "nsga3" and first["sources"] == "nsga3-0+nsga3-6"
     assert list(merged.columns[:4]) == ["design_id", "algo", "sources", "n_sources"]
@@ -129,15 +132,17 @@ def test_merge_names_a_missing_column():
 # ------------------------------------------------------------------------------------ screening
 def screening_table() -> pd.DataFrame:
     """Rows chosen around every rule's boundary (limits: 0.4 of the cycle off the trace, 1195 kg)."""
-    return pd.DataFrame({
-        "p_gen_kw": [10.0, 20.0, 30.0, 5.0, 15.0, 10.0],
-        "p_mot_kw": [20.0, 20.0, 25.0, 60.0, 40.0, 50.0],         # row 1 equal (fails: strict), row 2 above
-        "sim_speed_dev": [0.0, 0.4, 0.4001, np.nan, 0.1, 0.39],   # row 1 at the limit passes; 2, 3 fail
-        "sim_stalled": [False] * 6,
-        "sim_m_veh": [1000.0, 1195.0, 1100.0, 1195.01, np.nan, 1190.0],
-        "n_r": [78.0, 79.0, 60.0, 64.0, 78.0, 50.0],              # 79/30 odd, 60/44 planets 8, 78/28 sum%4
-        "n_s": [30.0, 30.0, 44.0, 24.0, 28.0, 18.0],
-    })
+    return pd.DataFrame(
+        {
+            "p_gen_kw": [10.0, 20.0, 30.0, 5.0, 15.0, 10.0],
+            "p_mot_kw": [20.0, 20.0, 25.0, 60.0, 40.0, 50.0],  # row 1 equal (fails: strict), row 2 above
+            "sim_speed_dev": [0.0, 0.4, 0.4001, np.nan, 0.1, 0.39],  # row 1 at the limit passes; 2, 3 fail
+            "sim_stalled": [False] * 6,
+            "sim_m_veh": [1000.0, 1195.0, 1100.0, 1195.01, np.nan, 1190.0],
+            "n_r": [78.0, 79.0, 60.0, 64.0, 78.0, 50.0],  # 79/30 odd, 60/44 planets 8, 78/28 sum%4
+            "n_s": [30.0, 30.0, 44.0, 24.0, 28.0, 18.0],
+        }
+    )
 
 
 def test_each_rule_flags_exactly_its_violators():
@@ -146,12 +151,12 @@ def test_each_rule_flags_exactly_its_violators():
     assert list(~rule_speed_dev(t, 0.4)) == [False, False, True, True, False, False]
     assert list(~rule_mass(t, 1195.0)) == [False, False, False, True, True, False]
     assert list(~rule_buildable_gear_set(t)) == [False, True, True, False, True, False]
-    np.testing.assert_array_equal(rule_buildable_gear_set(t), gear_set_buildable(t["n_r"].astype(int),
-                                                                                 t["n_s"].astype(int)))
+    np.testing.assert_array_equal(
+        rule_buildable_gear_set(t), gear_set_buildable(t["n_r"].astype(int), t["n_s"].astype(int))
+    )
 
 
-@pytest.mark.parametrize("rule", ["gen_below_motor", "not_stalled", "speed_dev_max", "mass_max",
-                                  "buildable_gear_set"])
+@pytest.mark.parametrize("rule", ["gen_below_motor", "not_stalled", "speed_dev_max", "mass_max", "buildable_gear_set"])
 def test_each_rule_alone_removes_exactly_the_designs_that_violate_it(rule):
     rng = np.random.default_rng(3)
     t = synthetic_front(400, 3)
@@ -167,12 +172,15 @@ def test_each_rule_alone_removes_exactly_the_designs_that_violate_it(rule):
 
 def test_switched_off_rules_remove_nothing_but_are_reported():
     t = screening_table()
-    screen = ScreenParams(gen_below_motor=False, buildable_gear_set=False, speed_dev_max=1.0,
-                          mass_max_kg=1e9)
+    screen = ScreenParams(gen_below_motor=False, buildable_gear_set=False, speed_dev_max=1.0, mass_max_kg=1e9)
     feasible, masks, report = apply_screening(t, screening_rules(screen))
     assert list(feasible) == [True, True, True, False, False, True]  # only the NaN results fail
-    assert report["gen_below_motor"] == {**report["gen_below_motor"], "enabled": False, "fails_alone": 2,
-                                         "removed_in_sequence": 0}
+    assert report["gen_below_motor"] == {
+        **report["gen_below_motor"],
+        "enabled": False,
+        "fails_alone": 2,
+        "removed_in_sequence": 0,
+    }
     assert report["buildable_gear_set"]["fails_alone"] == 3
     assert report["speed_dev_max"]["fails_alone"] == 1  # NaN still fails
     assert not masks["gen_below_motor"][1]
@@ -189,7 +197,7 @@ def test_screening_in_sequence_counts_only_designs_still_present():
 
 def test_a_stalled_design_is_screened_out_whatever_its_objectives():
     t = screening_table()
-    t.loc[0, "sim_stalled"] = True                      # row 0 passes every other rule
+    t.loc[0, "sim_stalled"] = True  # row 0 passes every other rule
     feasible, masks, report = apply_screening(t, screening_rules(ScreenParams()))
     assert not feasible[0] and not masks["not_stalled"][0]
     assert report["not_stalled"]["fails_alone"] == 1 and report["not_stalled"]["removed_in_sequence"] == 1
@@ -231,8 +239,7 @@ def test_diverse_pick_takes_extremes_and_spreads_more_than_random():
 
 # ------------------------------------------------------------------------------------ end to end
 def _fronts():
-    return {"nsga3": synthetic_front(120, 10), "moead": synthetic_front(90, 11),
-            "moga": synthetic_front(60, 12)}
+    return {"nsga3": synthetic_front(120, 10), "moead": synthetic_front(90, 11), "moga": synthetic_front(60, 12)}
 
 
 def test_select_designs_keeps_the_best_ranked_and_picks_among_them():
@@ -243,9 +250,17 @@ def test_select_designs_keeps_the_best_ranked_and_picks_among_them():
     m, c = res.merged, res.summary["counts"]
     assert c["input"] == 270 and c["merged"] == 269 and c["duplicates_removed"] == 1
     assert c["kept"] == 20 and c["picked"] == 6
-    assert (m["feasible"] == (m["nondominated"] & m["pass_gen_below_motor"] & m["pass_not_stalled"]
-                              & m["pass_speed_dev_max"]
-                              & m["pass_mass_max"] & m["pass_buildable_gear_set"])).all()
+    assert (
+        m["feasible"]
+        == (
+            m["nondominated"]
+            & m["pass_gen_below_motor"]
+            & m["pass_not_stalled"]
+            & m["pass_speed_dev_max"]
+            & m["pass_mass_max"]
+            & m["pass_buildable_gear_set"]
+        )
+    ).all()
     assert set(m.loc[m["kept"], "rank"]) == set(range(1, 21))
     assert (m.loc[~m["feasible"], "rank"] == -1).all()
     assert m.loc[m["picked"], "kept"].all()
@@ -266,8 +281,7 @@ def test_select_designs_keeps_the_best_ranked_and_picks_among_them():
 
 
 def test_fewer_designs_than_n_keep_and_n_pick_are_all_kept_and_noted():
-    res = select_designs({"nsga3": synthetic_front(30, 4)}, ScreenParams(n_keep=500, n_pick=400,
-                                                                          speed_dev_max=1.0))
+    res = select_designs({"nsga3": synthetic_front(30, 4)}, ScreenParams(n_keep=500, n_pick=400, speed_dev_max=1.0))
     c = res.summary["counts"]
     assert c["kept"] == c["feasible"] == c["picked"] > 0
     assert any("fewer than n_keep" in n for n in res.summary["notes"])
@@ -286,8 +300,7 @@ def test_any_number_of_objectives():
     objectives = ("a", "b", "c")
     front = synthetic_front(50, 8, objectives=objectives)
     front["sim_speed_dev"], front["sim_m_veh"] = 0.1, 1000.0
-    screen = ScreenParams(n_keep=10, n_pick=4, pick="diverse", gen_below_motor=False,
-                          buildable_gear_set=False)
+    screen = ScreenParams(n_keep=10, n_pick=4, pick="diverse", gen_below_motor=False, buildable_gear_set=False)
     res = select_designs({"nsga3": front}, screen, objectives)
     F = front[["sim_a", "sim_b", "sim_c"]].to_numpy()
     assert res.summary["counts"]["nondominated"] == brute_nondominated(F).sum()
@@ -323,7 +336,6 @@ def test_pareto_stage_writes_its_outputs(tmp_path, monkeypatch):
     assert merged["n_r"].dtype == np.int64 and merged["sim_cycle_met"].dtype == bool
     assert len(selected) == min(15, merged["kept"].sum())
     assert {f"sim_{k}" for k in OBJECTIVES} <= set(selected)
-    for name in ("reports/pareto.json", "reports/plots/pareto/tradeoffs.png",
-                 "reports/pareto_tradeoffs/moga.csv"):
+    for name in ("reports/pareto.json", "reports/plots/pareto/tradeoffs.png", "reports/pareto_tradeoffs/moga.csv"):
         assert Path(name).stat().st_size > 0
     assert set(pd.read_csv("reports/pareto_tradeoffs/nsga3.csv").columns) >= set(OBJECTIVES)

@@ -19,9 +19,17 @@ from hevlib.cycles import CYCLE_SCHEMA, Cycle
 from stages.cli import app
 
 BIN = Path(sys.executable).parent
-OUTPUTS = ["data/cycles", "data/components", "reports/cycles.json", "reports/components.json",
-           "reports/plots/cycles.png", "reports/plots/maps_engine.png", "reports/plots/maps_emissions.png",
-           "reports/plots/maps_motor.png", "reports/plots/maps_generator.png"]
+OUTPUTS = [
+    "data/cycles",
+    "data/components",
+    "reports/cycles.json",
+    "reports/components.json",
+    "reports/plots/cycles.png",
+    "reports/plots/maps_engine.png",
+    "reports/plots/maps_emissions.png",
+    "reports/plots/maps_motor.png",
+    "reports/plots/maps_generator.png",
+]
 
 
 def _snapshot(base: Path) -> dict[str, bytes]:
@@ -54,13 +62,21 @@ def test_stages_build_their_outputs_and_rebuild_the_same_bytes(root, tmp_path, m
     assert lib.body_conventional.glider_mass_kg == pytest.approx(707.37, abs=0.01)
     for stage in ("cycles", "components"):
         assert runner.invoke(app, [stage]).exit_code == 0
-    assert _snapshot(tmp_path) == first                                  # deterministic, byte for byte
+    assert _snapshot(tmp_path) == first  # deterministic, byte for byte
 
 
 def _copy_repo(root: Path, dest: Path) -> None:
     """The files git tracks or would track (new, not ignored): what a clone plus this change holds."""
-    listed = subprocess.run(["git", "ls-files", "--cached", "--others", "--exclude-standard", "-z"], cwd=root,
-                            capture_output=True, check=True).stdout.decode().split("\0")
+    listed = (
+        subprocess.run(
+            ["git", "ls-files", "--cached", "--others", "--exclude-standard", "-z"],
+            cwd=root,
+            capture_output=True,
+            check=True,
+        )
+        .stdout.decode()
+        .split("\0")
+    )
     for rel in filter(None, listed):
         src = root / rel
         if src.is_file():
@@ -72,8 +88,12 @@ def _copy_repo(root: Path, dest: Path) -> None:
 def test_dvc_repro_builds_both_stages_in_a_copy_of_the_repo(root, tmp_path):
     repo = tmp_path / "repo"
     _copy_repo(root, repo)
-    env = {**os.environ, "PATH": f"{BIN}{os.pathsep}{os.environ.get('PATH', '')}", "PYTHONPATH": str(repo),
-           "DVC_NO_ANALYTICS": "1"}
+    env = {
+        **os.environ,
+        "PATH": f"{BIN}{os.pathsep}{os.environ.get('PATH', '')}",
+        "PYTHONPATH": str(repo),
+        "DVC_NO_ANALYTICS": "1",
+    }
 
     def run(*cmd: str) -> subprocess.CompletedProcess:
         return subprocess.run(cmd, cwd=repo, env=env, capture_output=True, text=True, timeout=600)
@@ -81,7 +101,7 @@ def test_dvc_repro_builds_both_stages_in_a_copy_of_the_repo(root, tmp_path):
     assert run("git", "init", "-q").returncode == 0
     if not (repo / ".dvc").is_dir():
         assert run(str(BIN / "dvc"), "init", "-q").returncode == 0
-    for out in OUTPUTS:                                                  # start from nothing built
+    for out in OUTPUTS:  # start from nothing built
         if (repo / out).is_dir():
             shutil.rmtree(repo / out)
         else:

@@ -26,16 +26,27 @@ def built(tmp_path_factory):
     """A copy of this checkout (tracked and untracked, not ignored, files) in a fresh git repository, with
     the first stages built."""
     root = tmp_path_factory.mktemp("guard") / "repo"
-    files = subprocess.run(["git", "ls-files", "--cached", "--others", "--exclude-standard", "-z"], cwd=REPO,
-                           capture_output=True, text=True, check=True).stdout.split("\0")
+    files = subprocess.run(
+        ["git", "ls-files", "--cached", "--others", "--exclude-standard", "-z"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.split("\0")
     for f in filter(None, files):
         src = REPO / f
         if src.is_file():
             (root / f).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(src, root / f)
-    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
-           "DVC_NO_ANALYTICS": "1", "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t.invalid",
-           "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t.invalid"}
+    env = {
+        **os.environ,
+        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+        "DVC_NO_ANALYTICS": "1",
+        "GIT_AUTHOR_NAME": "t",
+        "GIT_AUTHOR_EMAIL": "t@t.invalid",
+        "GIT_COMMITTER_NAME": "t",
+        "GIT_COMMITTER_EMAIL": "t@t.invalid",
+    }
     for cmd in (["git", "init", "-q"], ["git", "add", "-A"], ["git", "commit", "-qm", "copy"]):
         subprocess.run(cmd, cwd=root, env=env, check=True, capture_output=True)
     out = _run(["dvc", "repro", "components", "cycles"], root, env)
@@ -67,8 +78,10 @@ PARAMS_CASES = {
     "duplicate key": (_n_lhs("  n_lhs: 300\n  n_lhs: 20"), "params.yaml|n_lhs|uplicate key"),
     "bool for an int": (_n_lhs("  n_lhs: true"), INT_MSG),
     "float for an int": (_n_lhs("  n_lhs: 300.5"), INT_MSG),
-    "string for a float": (lambda t: _edit(t, "  step_s: 1.0", "  step_s: one"),
-                           "cycles.step_s: Input should be a valid number"),
+    "string for a float": (
+        lambda t: _edit(t, "  step_s: 1.0", "  step_s: one"),
+        "cycles.step_s: Input should be a valid number",
+    ),
     "out of range": (lambda t: _edit(t, "  soc_init: 0.7", "  soc_init: 1.7"), "sim.soc_init"),
 }
 
@@ -102,15 +115,21 @@ def test_hev_check_names_a_duplicate_key_in_one_line(built, tmp_path):
 
 
 RAW_CASES = {
-    "truncated cycle": ("data/raw/cycles/CYC_US06.csv", lambda t: "".join(t.splitlines(True)[:600]),
-                        "CYC_US06.csv: 599 data rows, but cycles.yaml gives 601 points"),
-    "text in a cycle's number": ("data/raw/cycles/CYC_HWFET.csv",
-                                 lambda t: "".join(ln if i != 9 else "8.0,abc\n"
-                                                   for i, ln in enumerate(t.splitlines(True))),
-                                 "CYC_HWFET.csv: speed is missing, NaN or infinite at line 10"),
-    "text in a component number": ("data/raw/components/FC_PRIUS_JPN.yaml",
-                                   lambda t: _edit(t, "peak_power_kw: 42.7135963730314", "peak_power_kw: forty"),
-                                   "FC_PRIUS_JPN.yaml: peak_power_kw: 'forty' is not a number"),
+    "truncated cycle": (
+        "data/raw/cycles/CYC_US06.csv",
+        lambda t: "".join(t.splitlines(True)[:600]),
+        "CYC_US06.csv: 599 data rows, but cycles.yaml gives 601 points",
+    ),
+    "text in a cycle's number": (
+        "data/raw/cycles/CYC_HWFET.csv",
+        lambda t: "".join(ln if i != 9 else "8.0,abc\n" for i, ln in enumerate(t.splitlines(True))),
+        "CYC_HWFET.csv: speed is missing, NaN or infinite at line 10",
+    ),
+    "text in a component number": (
+        "data/raw/components/FC_PRIUS_JPN.yaml",
+        lambda t: _edit(t, "peak_power_kw: 42.7135963730314", "peak_power_kw: forty"),
+        "FC_PRIUS_JPN.yaml: peak_power_kw: 'forty' is not a number",
+    ),
 }
 
 

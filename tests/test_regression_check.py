@@ -35,8 +35,9 @@ def _setup(tmp_path, current: dict, hv_new: float = 0.012):
 
 
 def _run(base, cur, tol):
-    return CliRunner().invoke(app, ["check-metrics", "--baseline", str(base), "--current", str(cur),
-                                    "--tolerances", str(tol)])
+    return CliRunner().invoke(
+        app, ["check-metrics", "--baseline", str(base), "--current", str(cur), "--tolerances", str(tol)]
+    )
 
 
 def test_flatten_uses_dotted_keys():
@@ -45,20 +46,23 @@ def test_flatten_uses_dotted_keys():
 
 def test_unchanged_and_within_tolerance_pass(tmp_path):
     cur = json.loads(json.dumps(BASE))
-    cur["prius"]["ftp"]["fc"] = 4.10 * 1.0015         # 0.15 % < 0.2 %
-    cur["conventional"]["ftp"]["fc"] = 7.79           # 0.04 < 0.05
+    cur["prius"]["ftp"]["fc"] = 4.10 * 1.0015  # 0.15 % < 0.2 %
+    cur["conventional"]["ftp"]["fc"] = 7.79  # 0.04 < 0.05
     res = _run(*_setup(tmp_path, cur))
     assert res.exit_code == 0, res.output
     assert "within tolerance" in res.output
-    assert "runtime_s" in res.output and "unguarded" in res.output      # changed but not guarded: shown only
+    assert "runtime_s" in res.output and "unguarded" in res.output  # changed but not guarded: shown only
 
 
-@pytest.mark.parametrize("mutate, key", [
-    (lambda c: c["prius"]["ftp"].__setitem__("fc", 4.10 * 1.003), "prius.ftp.fc"),          # 0.3 % > 0.2 %
-    (lambda c: c["conventional"]["ftp"].__setitem__("fc", 7.85), "conventional.ftp.fc"),    # 0.10 > 0.05
-    (lambda c: c["prius"]["ftp"].__setitem__("cycle_met", False), "prius.ftp.cycle_met"),   # flag flipped
-    (lambda c: c["prius"]["ftp"].pop("fc"), "prius.ftp.fc"),                                # metric vanished
-])
+@pytest.mark.parametrize(
+    "mutate, key",
+    [
+        (lambda c: c["prius"]["ftp"].__setitem__("fc", 4.10 * 1.003), "prius.ftp.fc"),  # 0.3 % > 0.2 %
+        (lambda c: c["conventional"]["ftp"].__setitem__("fc", 7.85), "conventional.ftp.fc"),  # 0.10 > 0.05
+        (lambda c: c["prius"]["ftp"].__setitem__("cycle_met", False), "prius.ftp.cycle_met"),  # flag flipped
+        (lambda c: c["prius"]["ftp"].pop("fc"), "prius.ftp.fc"),  # metric vanished
+    ],
+)
 def test_a_guarded_metric_beyond_tolerance_fails(tmp_path, mutate, key):
     cur = json.loads(json.dumps(BASE))
     mutate(cur)
@@ -71,7 +75,7 @@ def test_a_guarded_metric_beyond_tolerance_fails(tmp_path, mutate, key):
 
 
 def test_stochastic_metric_has_a_loose_tolerance(tmp_path):
-    assert _run(*_setup(tmp_path, BASE, hv_new=0.014)).exit_code == 0      # +40 % < 50 %
+    assert _run(*_setup(tmp_path, BASE, hv_new=0.014)).exit_code == 0  # +40 % < 50 %
     assert _run(*_setup(tmp_path / "b", BASE, hv_new=0.016)).exit_code == 1  # +60 % > 50 %
 
 

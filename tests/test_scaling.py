@@ -48,7 +48,7 @@ def test_doubling_power_doubles_peak_and_rates_at_same_normalised_torque(lib):
     assert big.peak_power_kw == pytest.approx(2 * eng.peak_power_kw)
     rng = np.random.default_rng(0)
     w = rng.uniform(eng.min_speed_rad_s, eng.max_speed_rad_s, 200)
-    frac = rng.uniform(0, 1, 200)                                     # torque / full-load torque
+    frac = rng.uniform(0, 1, 200)  # torque / full-load torque
     for key in ("fuel", "hc", "co", "nox"):
         small_rate = eng.rate_g_s(key, w, frac * eng.max_torque_at(w))
         big_rate = big.rate_g_s(key, w, frac * big.max_torque_at(w))
@@ -84,7 +84,7 @@ def test_battery_pack_scales_with_module_count(lib):
     np.testing.assert_allclose(pack.v_max, n * 11.7)
     np.testing.assert_allclose(pack.v_min, n * 6.0)
     np.testing.assert_allclose(pack.mass_kg, n * 1.13472)
-    assert pack.capacity_ah == m.capacity_ah                          # series string: capacity unchanged
+    assert pack.capacity_ah == m.capacity_ah  # series string: capacity unchanged
     for bad in (0, 2.5, -3):
         with pytest.raises(ValueError, match="n_bat"):
             battery_pack(lib, bad)
@@ -99,15 +99,16 @@ def test_engine_system_mass_follows_advisor_rules(lib, raw):
     assert got == pytest.approx(expected)
     # stock Prius engine: 76.88 block + 34.17 accessories + 25.63 fuel system (the source rounds the sum to
     # 137 kg) + 11.11 kg exhaust (EX_SI evaluated with FC_PRIUS_JPN)
-    assert float(engine_system_mass_kg(lib.engine_hybrid, lib.engine_hybrid.peak_power_kw,
-                                       lib.exhaust_kg_per_kw)) == pytest.approx(136.6835 + 11.1055, abs=1e-3)
+    assert float(
+        engine_system_mass_kg(lib.engine_hybrid, lib.engine_hybrid.peak_power_kw, lib.exhaust_kg_per_kw)
+    ) == pytest.approx(136.6835 + 11.1055, abs=1e-3)
     p_mot = lib.motor.peak_power_kw
     np.testing.assert_allclose(machine_mass_kg(lib.motor, [p_mot, 0.5 * p_mot]), [56.75, 28.375])
 
 
 def test_conventional_chassis_and_glider(lib):
     chassis = conventional_chassis_kg(lib, 1195.0, 70.0)
-    assert chassis == pytest.approx(843.37, abs=0.01)       # 1195 - 237.80 engine system - 113.83 gearbox
+    assert chassis == pytest.approx(843.37, abs=0.01)  # 1195 - 237.80 engine system - 113.83 gearbox
     body = lib.body_conventional
     assert body.glider_mass_kg + body.cargo_mass_kg == pytest.approx(chassis)
     heavier = with_conventional_glider(lib, 1295.0, 70.0)
@@ -120,37 +121,58 @@ def test_l27_design_1_mass_against_the_study_regression(lib, raw):
     chassis = conventional_chassis_kg(lib, 1195.0, 70.0)
     m = hybrid_masses(lib, chassis, 50.0, 50.0, 25.0, 40)
     assert float(m.test_mass_kg[0]) == pytest.approx(1200.41, abs=0.01)
-    coef = {"intercept": 881.167, "p_eng_kw": 2.8, "p_mot_kw": 1.9, "p_gen_kw": 2.2, "i0": 0, "n_bat": 1.15,
-            "n_r": 0, "n_s": 0}
+    coef = {
+        "intercept": 881.167,
+        "p_eng_kw": 2.8,
+        "p_mot_kw": 1.9,
+        "p_gen_kw": 2.2,
+        "i0": 0,
+        "n_bat": 1.15,
+        "n_r": 0,
+        "n_s": 0,
+    }
     design = {"p_eng_kw": 50, "p_mot_kw": 50, "p_gen_kw": 25, "i0": 3.93, "n_bat": 40, "n_r": 78, "n_s": 30}
     m_reg = regression_value(coef, design)
     assert m_reg == pytest.approx(1217.167)
-    assert abs(float(m.test_mass_kg[0]) - m_reg) / m_reg < 0.02   # within 2 % of the study's ADVISOR masses
+    assert abs(float(m.test_mass_kg[0]) - m_reg) / m_reg < 0.02  # within 2 % of the study's ADVISOR masses
     # marginal masses (kg per kW / per module) close to the regression's slopes
     eng = lib.engine_hybrid
-    slopes = {"p_eng_kw": eng.engine_mass_kg / eng.peak_power_kw + lib.exhaust_kg_per_kw,
-              "p_mot_kw": lib.motor.mass_kg / lib.motor.peak_power_kw,
-              "p_gen_kw": lib.generator.mass_kg / lib.generator.peak_power_kw, "n_bat": lib.battery.mass_kg}
+    slopes = {
+        "p_eng_kw": eng.engine_mass_kg / eng.peak_power_kw + lib.exhaust_kg_per_kw,
+        "p_mot_kw": lib.motor.mass_kg / lib.motor.peak_power_kw,
+        "p_gen_kw": lib.generator.mass_kg / lib.generator.peak_power_kw,
+        "n_bat": lib.battery.mass_kg,
+    }
     for key, slope in slopes.items():
         assert slope == pytest.approx(coef[key], rel=0.06), key
     # vectorised over designs
-    mv = hybrid_masses(lib, chassis, np.array([30.0, 50.0]), np.array([30.0, 50.0]), np.array([15.0, 25.0]),
-                       np.array([20, 40]))
+    mv = hybrid_masses(
+        lib, chassis, np.array([30.0, 50.0]), np.array([30.0, 50.0]), np.array([15.0, 25.0]), np.array([20, 40])
+    )
     assert mv.test_mass_kg.shape == (2,) and mv.test_mass_kg[1] == pytest.approx(m.test_mass_kg[0])
 
 
 def test_components_report_figures(lib, params):
     rep = components_report(
-        lib, conventional=params.baseline.conventional.model_dump(), prius=params.baseline.prius.model_dump(),
-        l27_design={"p_eng_kw": 50, "p_mot_kw": 50, "p_gen_kw": 25, "i0": 3.93, "n_bat": 40, "n_r": 78,
-                    "n_s": 30},
-        m_veh_regression={"intercept": 881.167, "p_eng_kw": 2.8, "p_mot_kw": 1.9, "p_gen_kw": 2.2, "i0": 0,
-                          "n_bat": 1.15, "n_r": 0, "n_s": 0})
+        lib,
+        conventional=params.baseline.conventional.model_dump(),
+        prius=params.baseline.prius.model_dump(),
+        l27_design={"p_eng_kw": 50, "p_mot_kw": 50, "p_gen_kw": 25, "i0": 3.93, "n_bat": 40, "n_r": 78, "n_s": 30},
+        m_veh_regression={
+            "intercept": 881.167,
+            "p_eng_kw": 2.8,
+            "p_mot_kw": 1.9,
+            "p_gen_kw": 2.2,
+            "i0": 0,
+            "n_bat": 1.15,
+            "n_r": 0,
+            "n_s": 0,
+        },
+    )
     conv, prius, pack = rep["conventional"], rep["prius"], rep["battery_pack"]
     parts = ("engine_system_kg", "gearbox_kg", "glider_kg", "cargo_kg")
     assert sum(conv[k] for k in parts) == pytest.approx(1195.0, abs=0.01)
-    assert (prius["p_eng_kw"], prius["p_mot_kw"], prius["p_gen_kw"], prius["test_mass_kg"]) == (
-        43, 31, 15, 1404)
+    assert (prius["p_eng_kw"], prius["p_mot_kw"], prius["p_gen_kw"], prius["test_mass_kg"]) == (43, 31, 15, 1404)
     parts = ("glider_kg", "cargo_kg", "engine_system_kg", "motor_kg", "generator_kg", "battery_kg")
     assert prius["glider_kg"] == 918 and prius["cargo_kg"] == 136
     assert prius["mass_model_test_mass_kg"] == pytest.approx(sum(prius[k] for k in parts), abs=0.01)

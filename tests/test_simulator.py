@@ -36,8 +36,15 @@ def designs(params) -> np.ndarray:
     """40 random designs over the whole design space (seeded), plus the corners that stress limits."""
     space = params.design_space.space()
     X = lhs_designs(space, 40, seed=11)
-    corners = np.array([[25, 20, 5, 2.0, 10, 90, 18], [70, 60, 30, 4.5, 60, 50, 40], [25, 60, 5, 4.5, 10, 90, 40],
-                        [70, 20, 30, 2.0, 60, 50, 18]], dtype=float)
+    corners = np.array(
+        [
+            [25, 20, 5, 2.0, 10, 90, 18],
+            [70, 60, 30, 4.5, 60, 50, 40],
+            [25, 60, 5, 4.5, 10, 90, 40],
+            [70, 20, 30, 2.0, 60, 50, 18],
+        ],
+        dtype=float,
+    )
     return np.vstack([X, corners])
 
 
@@ -56,16 +63,39 @@ def test_energy_balance_closes_for_every_design(runs, cycle):
     # ... and the only term that is not an identity (force-limited steps' fixed point) is negligible
     assert (eb["mismatch_share"] < 1e-3).all(), eb["mismatch_share"].max()
     # every loss term is a loss
-    for key in ("e_loss_eng_j", "e_loss_mot_j", "e_loss_gen_j", "e_loss_pg_j", "e_loss_fd_j", "e_loss_batt_j",
-                "e_brake_j", "e_road_j"):
+    for key in (
+        "e_loss_eng_j",
+        "e_loss_mot_j",
+        "e_loss_gen_j",
+        "e_loss_pg_j",
+        "e_loss_fd_j",
+        "e_loss_batt_j",
+        "e_brake_j",
+        "e_road_j",
+    ):
         assert (eb[key] >= -1e-6).all(), key
 
 
 def test_energy_balance_sees_a_broken_term(runs):
     """The check can fail: dropping one sink (the road load) leaves a residual far above the bar."""
     o = runs["udds"].frame()
-    sinks = o[[k for k in ("e_loss_eng_j", "e_loss_mot_j", "e_loss_gen_j", "e_loss_pg_j", "e_loss_fd_j",
-                           "e_loss_batt_j", "e_acc_j", "e_brake_j", "e_grade_j", "e_kin_end_j")]].sum(axis=1)
+    sinks = o[
+        [
+            k
+            for k in (
+                "e_loss_eng_j",
+                "e_loss_mot_j",
+                "e_loss_gen_j",
+                "e_loss_pg_j",
+                "e_loss_fd_j",
+                "e_loss_batt_j",
+                "e_acc_j",
+                "e_brake_j",
+                "e_grade_j",
+                "e_kin_end_j",
+            )
+        ]
+    ].sum(axis=1)
     share = (o["e_fuel_j"] + o["e_batt_j"] - sinks).abs() / (o["e_fuel_j"] + o["e_batt_j"].abs())
     moved = o["dist_m"] > 0.2 * o["dist_ref_m"]
     assert moved.sum() >= 10 and (share[moved] > 0.005).all()
@@ -83,7 +113,7 @@ def test_planetary_kinematics_and_torque_split():
     n_r, n_s = 78.0, 30.0
     w_c, w_r = 250.0, 300.0
     w_s = sun_speed(w_c, w_r, n_r, n_s)
-    assert w_r * n_r + w_s * n_s == pytest.approx(w_c * (n_r + n_s))           # Willis
+    assert w_r * n_r + w_s * n_s == pytest.approx(w_c * (n_r + n_s))  # Willis
     assert carrier_speed(w_r, w_s, n_r, n_s) == pytest.approx(w_c)
     lo, hi = carrier_speed_window(w_r, n_r, n_s, 500.0)
     assert sun_speed(lo, w_r, n_r, n_s) == pytest.approx(-500.0)
@@ -128,10 +158,14 @@ def test_traces_obey_willis_torque_split_and_limits(sim, cycles, designs, lib, p
         s_m, s_g = x[1] / lib.motor.peak_power_kw, x[2] / lib.generator.peak_power_kw
         t_e_cap = lib.engine_hybrid.max_torque_at(d.loc[on, "w_eng_rad_s"].to_numpy()) * s_e
         assert (d.loc[on, "t_eng_nm"].to_numpy() <= t_e_cap * (1 + 1e-6)).all()
-        assert (d["t_mot_nm"].abs().to_numpy()
-                <= lib.motor.max_torque_at(d["w_mot_rad_s"].abs().to_numpy()) * s_m * (1 + 1e-6)).all()
-        assert (d["t_gen_nm"].abs().to_numpy()
-                <= lib.generator.max_torque_at(d["w_gen_rad_s"].abs().to_numpy()) * s_g * (1 + 1e-6)).all()
+        assert (
+            d["t_mot_nm"].abs().to_numpy()
+            <= lib.motor.max_torque_at(d["w_mot_rad_s"].abs().to_numpy()) * s_m * (1 + 1e-6)
+        ).all()
+        assert (
+            d["t_gen_nm"].abs().to_numpy()
+            <= lib.generator.max_torque_at(d["w_gen_rad_s"].abs().to_numpy()) * s_g * (1 + 1e-6)
+        ).all()
         # motor speed is set by the vehicle: ring = wheel speed x i0 (at the step's mean speed)
         v_mean = 0.5 * (d["v_mps"].to_numpy()[1:] + d["v_mps"].to_numpy()[:-1])
         moving = v_mean > 0
@@ -149,8 +183,8 @@ def test_conventional_gear_kinematics_and_idle(sim, cycles, lib, params):
     w_in = v_mean[engaged] / lib.wheel_conventional.radius_m * ratios[tr.loc[engaged, "gear"].astype(int) - 1]
     w_e = tr.loc[engaged, "w_eng_rad_s"].to_numpy()
     slipping = w_in < lib.conventional_launch_rad_s
-    assert np.allclose(w_e[~slipping], w_in[~slipping], rtol=1e-9)          # clutch closed: rigid
-    assert np.allclose(w_e[slipping], lib.conventional_launch_rad_s)        # clutch slipping at launch speed
+    assert np.allclose(w_e[~slipping], w_in[~slipping], rtol=1e-9)  # clutch closed: rigid
+    assert np.allclose(w_e[slipping], lib.conventional_launch_rad_s)  # clutch slipping at launch speed
     # standstill with the key on: idle fuel; key off (the FTP soak): none
     key_on = cycles["ftp"].key_on
     stopped = (tr["v_mps"] == 0) & (tr["v_ref_mps"] == 0)
@@ -223,10 +257,11 @@ def test_responses_are_finite_and_named(sim, cycles, designs):
 
 def test_mass_model_matches_components(sim, lib):
     from hevlib.scaling import hybrid_masses
+
     X = np.array([PRIUS, [50, 50, 25, 3.93, 40, 78, 30]], dtype=float)
     m = hybrid_masses(lib, sim.chassis_kg, X[:, 0], X[:, 1], X[:, 2], X[:, 4]).test_mass_kg
     assert np.allclose(sim.mass_kg(X), m)
-    assert sim.mass_kg(X[[1]])[0] == pytest.approx(1200.4, abs=0.5)     # L27 design 1 (components.json)
+    assert sim.mass_kg(X[[1]])[0] == pytest.approx(1200.4, abs=0.5)  # L27 design 1 (components.json)
 
 
 # ------------------------------------------------------------------------------- performance
@@ -235,8 +270,10 @@ def test_performance_limits(sim, cycles, designs, lib, params):
     r_w = lib.wheel_conventional.radius_m
     ps = lib.power_split
     for x, vmax in zip(designs, r["v_max"], strict=True):
-        w_ring_max = min(ps.motor_max_speed_rad_s, ((x[5] + x[6]) * ps.engine_max_speed_rad_s
-                                                   + x[6] * ps.generator_max_speed_rad_s) / x[5])
+        w_ring_max = min(
+            ps.motor_max_speed_rad_s,
+            ((x[5] + x[6]) * ps.engine_max_speed_rad_s + x[6] * ps.generator_max_speed_rad_s) / x[5],
+        )
         assert vmax <= w_ring_max * r_w / x[3] * 3.6 * (1 + 1e-9)
     body = lib.body_conventional
     a_adh = params.sim.adhesion_coefficient * body.gravity_m_s2 * body.front_weight_fraction
@@ -270,12 +307,15 @@ def test_baselines_are_physically_plausible(sim, cycles):
 
 
 # -------------------------------------------------------------------------------- bad input
-@pytest.mark.parametrize(("row", "name"), [
-    ([80, 40, 20, 3.0, 30, 78, 30], "p_eng_kw"),
-    ([40, 40, 20, 3.0, 30.5, 78, 30], "n_bat"),
-    ([40, 40, 20, 9.0, 30, 78, 30], "i0"),
-    ([40, 40, 20, 3.0, 30, 78, np.nan], "n_s"),
-])
+@pytest.mark.parametrize(
+    ("row", "name"),
+    [
+        ([80, 40, 20, 3.0, 30, 78, 30], "p_eng_kw"),
+        ([40, 40, 20, 3.0, 30.5, 78, 30], "n_bat"),
+        ([40, 40, 20, 9.0, 30, 78, 30], "i0"),
+        ([40, 40, 20, 3.0, 30, 78, np.nan], "n_s"),
+    ],
+)
 def test_bad_designs_are_rejected_naming_the_variable(sim, cycles, row, name):
     with pytest.raises(ValueError, match=name):
         sim.run(np.array([row], dtype=float), cycles["ftp"])
@@ -316,8 +356,9 @@ def test_hev_simulate_writes_inputs_and_every_response(stage_dir):
     from stages.cli import app
 
     pd.DataFrame([PRIUS, [50, 50, 25, 3.93, 40, 78, 30]], columns=list(DESIGN_VARS)).to_csv("d.csv", index=False)
-    res = CliRunner().invoke(app, ["simulate", "--designs", "d.csv", "--cycle", "udds", "--grade", "0",
-                                   "--out", "out.parquet"])
+    res = CliRunner().invoke(
+        app, ["simulate", "--designs", "d.csv", "--cycle", "udds", "--grade", "0", "--out", "out.parquet"]
+    )
     assert res.exit_code == 0, res.output
     out = pd.read_parquet("out.parquet")
     assert len(out) == 2 and set(DESIGN_VARS) <= set(out.columns) and set(RESPONSES) <= set(out.columns)
@@ -328,16 +369,19 @@ def test_hev_simulate_writes_inputs_and_every_response(stage_dir):
     assert len(conv) == 1 and conv.loc[0, "vehicle"] == "conventional" and 6.5 < conv.loc[0, "fc"] < 10
 
 
-@pytest.mark.parametrize(("args", "message"), [
-    (["--designs", "bad.csv", "--cycle", "ftp"], "p_eng_kw"),
-    (["--designs", "d.csv", "--cycle", "mars"], "--cycle"),
-    (["--designs", "d.csv", "--cycle", "ftp", "--vehicle", "truck"], "--vehicle"),
-    (["--designs", "missing.csv", "--cycle", "ftp"], "missing.csv"),
-    (["--designs", "empty.csv", "--cycle", "ftp"], "empty.csv: empty file (no header, no rows)"),
-    (["--designs", "header.csv", "--cycle", "ftp"], "header.csv: no designs (a header but no rows)"),
-    (["--designs", "text.csv", "--cycle", "ftp"], "text.csv: i0 is not a number in row 2 ('abc')"),
-    (["--designs", "d.csv", "--cycle", "ftp", "--vehicle", "prius"], "--designs: only for --vehicle hybrid"),
-])
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--designs", "bad.csv", "--cycle", "ftp"], "p_eng_kw"),
+        (["--designs", "d.csv", "--cycle", "mars"], "--cycle"),
+        (["--designs", "d.csv", "--cycle", "ftp", "--vehicle", "truck"], "--vehicle"),
+        (["--designs", "missing.csv", "--cycle", "ftp"], "missing.csv"),
+        (["--designs", "empty.csv", "--cycle", "ftp"], "empty.csv: empty file (no header, no rows)"),
+        (["--designs", "header.csv", "--cycle", "ftp"], "header.csv: no designs (a header but no rows)"),
+        (["--designs", "text.csv", "--cycle", "ftp"], "text.csv: i0 is not a number in row 2 ('abc')"),
+        (["--designs", "d.csv", "--cycle", "ftp", "--vehicle", "prius"], "--designs: only for --vehicle hybrid"),
+    ],
+)
 def test_hev_simulate_rejects_bad_input_with_one_line_and_no_output(stage_dir, args, message):
     from typer.testing import CliRunner
 

@@ -37,8 +37,14 @@ def uniform_designs(n: int, seed: int, space=SPACE) -> np.ndarray:
 def smooth_truth(X: np.ndarray) -> np.ndarray:
     """Eleven smooth nonlinear functions of the scaled designs (a tanh net can represent them closely)."""
     u = (X - SPACE.lower) / (SPACE.upper - SPACE.lower)
-    return np.stack([np.tanh(u @ np.sin(np.arange(7) * (k + 1)) - 0.3 * k / 11)
-                     + 0.5 * np.sin(3 * u[:, k % 7]) * u[:, (k + 2) % 7] for k in range(11)], axis=1)
+    return np.stack(
+        [
+            np.tanh(u @ np.sin(np.arange(7) * (k + 1)) - 0.3 * k / 11)
+            + 0.5 * np.sin(3 * u[:, k % 7]) * u[:, (k + 2) % 7]
+            for k in range(11)
+        ],
+        axis=1,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -49,12 +55,15 @@ def bnn_fit():
 
 
 # ------------------------------------------------------------------------------ evidence framework
-@pytest.mark.parametrize("n_res, e_d, e_w, alpha, beta", [
-    (2519, 12.0, 200.0, 1.0, 50.0),   # ordinary
-    (209, 3.0, 20.0, 1e-9, 1.0),      # fewer residuals than weights, almost no prior
-    (50, 0.0, 0.0, 0.0, 1e6),         # perfect fit, zero weights, alpha at zero
-    (391, 1e9, 1e-9, 1e9, 1e-9),      # extreme scales
-])
+@pytest.mark.parametrize(
+    "n_res, e_d, e_w, alpha, beta",
+    [
+        (2519, 12.0, 200.0, 1.0, 50.0),  # ordinary
+        (209, 3.0, 20.0, 1e-9, 1.0),  # fewer residuals than weights, almost no prior
+        (50, 0.0, 0.0, 0.0, 1e6),  # perfect fit, zero weights, alpha at zero
+        (391, 1e9, 1e-9, 1e9, 1e-9),  # extreme scales
+    ],
+)
 def test_evidence_update_keeps_hyperparameters_in_range(n_res, e_d, e_w, alpha, beta):
     rng = np.random.default_rng(0)
     n_w = 391
@@ -96,8 +105,7 @@ def test_output_jacobian_matches_autograd():
     params = list(net.parameters())
 
     def flat_out(*ps):
-        return torch.func.functional_call(net, dict(zip([k for k, _ in net.named_parameters()], ps, strict=True)),
-                                          (x,))
+        return torch.func.functional_call(net, dict(zip([k for k, _ in net.named_parameters()], ps, strict=True)), (x,))
 
     jac = torch.autograd.functional.jacobian(flat_out, tuple(params))
     ref = torch.cat([j.reshape(6, 11, -1) for j in jac], dim=2)
@@ -244,8 +252,9 @@ def heavy_fits():
     """The same BNN fitted to a heavy-tailed fc without and with the log transform (~1 s each)."""
     X = uniform_designs(150, 0)
     Y = heavy_tailed_truth(X)
-    return {lt: BayesRegMLP(SPACE, hidden=(16,), max_epochs=600, seed=0, log_targets=lt).fit(X, Y)
-            for lt in ((), ("fc",))}
+    return {
+        lt: BayesRegMLP(SPACE, hidden=(16,), max_epochs=600, seed=0, log_targets=lt).fit(X, Y) for lt in ((), ("fc",))
+    }
 
 
 def test_log_targets_fit_a_heavy_tailed_objective_better(heavy_fits):
@@ -385,8 +394,10 @@ def test_signs_agree_with_the_study_on_its_own_equations():
     study = read_study_coefficients(STUDY)
     X = uniform_designs(300, 16)
     rng = np.random.default_rng(0)
-    Y = np.stack([study.loc[o, "intercept"] + X @ study.loc[o, list(DESIGN_VARS)].to_numpy(dtype=float)
-                  for o in OBJECTIVES], axis=1)
+    Y = np.stack(
+        [study.loc[o, "intercept"] + X @ study.loc[o, list(DESIGN_VARS)].to_numpy(dtype=float) for o in OBJECTIVES],
+        axis=1,
+    )
     Y += rng.normal(0, 1e-6, Y.shape) * np.abs(Y).mean(axis=0)
     signs = compare_signs(LinearRegressions(SPACE).fit(X, Y), study)
     assert len(signs) == 11 * 7
@@ -467,8 +478,16 @@ def _project(tmp_path: Path, monkeypatch, **edits) -> CliRunner:
 def test_doe_surrogates_predict_stages(tmp_path, monkeypatch):
     from stages.cli import app
 
-    runner = _project(tmp_path, monkeypatch, **{"method: l27": "method: both", "n_lhs: 300": "n_lhs: 40",
-                                                 "max_epochs: 3500": "max_epochs: 200", "n: 200": "n: 30"})
+    runner = _project(
+        tmp_path,
+        monkeypatch,
+        **{
+            "method: l27": "method: both",
+            "n_lhs: 300": "n_lhs: 40",
+            "max_epochs: 3500": "max_epochs: 200",
+            "n: 200": "n: 30",
+        },
+    )
     out = runner.invoke(app, ["surrogates"])
     assert out.exit_code == 1 and "data/doe/doe.parquet: no such DOE table" in out.output
     assert not Path("models").exists()
@@ -502,9 +521,15 @@ def test_doe_surrogates_predict_stages(tmp_path, monkeypatch):
     assert metrics["regression"]["heldout"]["m_veh"]["r2"] > 0.999  # m_veh is linear in the fake model
     held, _ = doe.read_doe("data/doe/heldout.parquet")
     assert len(held) == 30 and set(held["source"]) == {"heldout"}
-    for name in ("models/bnn.pt", "models/regression.json", "reports/plots/parity_bnn.png",
-                 "reports/plots/parity_regression.png", "reports/plots/bnn_training.png",
-                 "reports/regression_signs.json", "reports/regression_signs.md"):
+    for name in (
+        "models/bnn.pt",
+        "models/regression.json",
+        "reports/plots/parity_bnn.png",
+        "reports/plots/parity_regression.png",
+        "reports/plots/bnn_training.png",
+        "reports/regression_signs.json",
+        "reports/regression_signs.md",
+    ):
         assert Path(name).stat().st_size > 0, name
     curve = pd.read_csv("reports/bnn_training.csv")
     assert list(curve.columns) == ["epoch", "e_d", "e_w", "alpha", "beta", "gamma"] and len(curve) == 200
@@ -536,8 +561,9 @@ def test_predict_cli_on_a_tiny_model(tmp_path, monkeypatch, reg_fit):
     designs = pd.DataFrame(uniform_designs(4, 18), columns=DESIGN_VARS)
     designs.assign(extra=1).to_parquet("d.parquet")
     runner = CliRunner()
-    out = runner.invoke(app, ["predict", "--model", "bnn", "--designs", "d.parquet", "--out", "p.csv",
-                              "--models-dir", "m"])
+    out = runner.invoke(
+        app, ["predict", "--model", "bnn", "--designs", "d.parquet", "--out", "p.csv", "--models-dir", "m"]
+    )
     assert out.exit_code == 0, out.output
     pred = pd.read_csv("p.csv")
     np.testing.assert_allclose(pred[list(DESIGN_VARS)].to_numpy(), designs.to_numpy())
@@ -545,11 +571,13 @@ def test_predict_cli_on_a_tiny_model(tmp_path, monkeypatch, reg_fit):
 
     designs.loc[2, "n_s"] = 45
     designs.to_csv("bad.csv", index=False)
-    out = runner.invoke(app, ["predict", "--model", "regression", "--designs", "bad.csv", "--out", "p.csv",
-                              "--models-dir", "m"])
+    out = runner.invoke(
+        app, ["predict", "--model", "regression", "--designs", "bad.csv", "--out", "p.csv", "--models-dir", "m"]
+    )
     assert out.exit_code == 1 and "n_s=45 in row 2 is outside the design space" in out.output
-    out = runner.invoke(app, ["predict", "--model", "regression", "--designs", "d.parquet", "--out", "p.txt",
-                              "--models-dir", "m"])
+    out = runner.invoke(
+        app, ["predict", "--model", "regression", "--designs", "d.parquet", "--out", "p.txt", "--models-dir", "m"]
+    )
     assert out.exit_code == 1 and "unsupported output format" in out.output
     out = runner.invoke(app, ["predict", "--model", "nn", "--designs", "d.parquet", "--out", "p.csv"])
     assert out.exit_code == 1 and "unknown model 'nn'" in out.output

@@ -33,10 +33,30 @@ from hevlib.validation import (
 
 REPO = Path(__file__).resolve().parents[1]
 
-CONVENTIONAL = {"m_veh": 1195.0, "fc": 8.0, "fc_soc_corrected": 8.0, "diff_soc": 0.0, "hc": 0.4, "co": 2.0,
-                "nox": 0.3, "v_max": 180.0, "f_max": 3.0, "eta_drivetrain": 0.2}
-PRIUS = {"m_veh": 1404.0, "fc": 4.5, "fc_soc_corrected": 4.6, "diff_soc": 0.02, "hc": 0.2, "co": 1.0,
-         "nox": 0.1, "v_max": 170.0, "f_max": 2.8, "eta_drivetrain": 0.3}
+CONVENTIONAL = {
+    "m_veh": 1195.0,
+    "fc": 8.0,
+    "fc_soc_corrected": 8.0,
+    "diff_soc": 0.0,
+    "hc": 0.4,
+    "co": 2.0,
+    "nox": 0.3,
+    "v_max": 180.0,
+    "f_max": 3.0,
+    "eta_drivetrain": 0.2,
+}
+PRIUS = {
+    "m_veh": 1404.0,
+    "fc": 4.5,
+    "fc_soc_corrected": 4.6,
+    "diff_soc": 0.02,
+    "hc": 0.2,
+    "co": 1.0,
+    "nox": 0.1,
+    "v_max": 170.0,
+    "f_max": 2.8,
+    "eta_drivetrain": 0.3,
+}
 
 
 class FakeSimulator:
@@ -56,9 +76,17 @@ class FakeSimulator:
             base = dict(PRIUS)
         else:
             p_eng, p_mot, p_gen, i0, n_bat, n_r, n_s = x
-            base = {"m_veh": 900 + 3 * p_eng + n_bat, "fc": 2 + p_eng / 20, "diff_soc": 0.001 * n_bat,
-                    "hc": 0.1 + p_eng / 500, "co": 0.5 + p_eng / 100, "nox": 0.05 + p_gen / 1000,
-                    "v_max": 120 + p_mot, "f_max": 2 + p_mot / 60, "eta_drivetrain": 0.25 + i0 / 100}
+            base = {
+                "m_veh": 900 + 3 * p_eng + n_bat,
+                "fc": 2 + p_eng / 20,
+                "diff_soc": 0.001 * n_bat,
+                "hc": 0.1 + p_eng / 500,
+                "co": 0.5 + p_eng / 100,
+                "nox": 0.05 + p_gen / 1000,
+                "v_max": 120 + p_mot,
+                "f_max": 2 + p_mot / 60,
+                "eta_drivetrain": 0.25 + i0 / 100,
+            }
             base["fc_soc_corrected"] = base["fc"] + 0.5 * base["diff_soc"]
         row = {r: float(base.get(r, 1.0)) for r in RESPONSES}
         row["fc"] *= k
@@ -74,8 +102,15 @@ class FakeSimulator:
 
     def trace(self, X, cycle, vehicle):
         t = cycle.time_s
-        return pd.DataFrame({"time_s": t, "v_ref_mps": cycle.speed_mps, "v_mps": cycle.speed_mps * 0.98,
-                             "soc": np.full(len(t), 0.6), "fuel_g_s": np.full(len(t), 0.3)})
+        return pd.DataFrame(
+            {
+                "time_s": t,
+                "v_ref_mps": cycle.speed_mps,
+                "v_mps": cycle.speed_mps * 0.98,
+                "soc": np.full(len(t), 0.6),
+                "fuel_g_s": np.full(len(t), 0.3),
+            }
+        )
 
 
 def _cycle(name: str, n: int = 60) -> Cycle:
@@ -105,12 +140,16 @@ def test_soc_difference_is_in_soc_points_and_not_applicable_without_battery():
 
 
 def test_improvement_table_groups_by_algorithm_and_counts_shared_designs_for_each():
-    designs = pd.DataFrame({"algo": ["nsga3", "nsga3+moead", "moga"], "fc": [8.0, 6.0, 9.0],
-                            **{r: [1.0, 1.0, 1.0] for r in IMPROVEMENT_RESPONSES if r != "fc"}})
-    bases = {"conventional": pd.Series({**CONVENTIONAL, "fc": 10.0}),
-             "prius": pd.Series({**PRIUS, "fc": 5.0})}
+    designs = pd.DataFrame(
+        {
+            "algo": ["nsga3", "nsga3+moead", "moga"],
+            "fc": [8.0, 6.0, 9.0],
+            **{r: [1.0, 1.0, 1.0] for r in IMPROVEMENT_RESPONSES if r != "fc"},
+        }
+    )
+    bases = {"conventional": pd.Series({**CONVENTIONAL, "fc": 10.0}), "prius": pd.Series({**PRIUS, "fc": 5.0})}
     table = improvement_table(designs, bases, ["nsga3", "moead", "moga"])
-    assert table["nsga3"]["vs_conventional"]["fc"] == pytest.approx(30.0)   # (20 + 40) / 2
+    assert table["nsga3"]["vs_conventional"]["fc"] == pytest.approx(30.0)  # (20 + 40) / 2
     assert table["moead"]["vs_conventional"]["fc"] == pytest.approx(40.0)
     assert table["all"]["vs_conventional"]["fc"] == pytest.approx((20 + 40 + 10) / 3)
     assert table["moga"]["vs_prius"]["fc"] == pytest.approx(-80.0)
@@ -122,8 +161,9 @@ def test_improvement_table_groups_by_algorithm_and_counts_shared_designs_for_eac
 
 # ---------------------------------------------------------------------------------- validation
 def _selected() -> pd.DataFrame:
-    X = np.array([[42.0, 31.0, 15.0, 3.93, 25, 78, 30], [30.0, 50.0, 20.0, 3.0, 40, 64, 24],
-                  [55.0, 40.0, 10.0, 2.5, 20, 78, 30]])
+    X = np.array(
+        [[42.0, 31.0, 15.0, 3.93, 25, 78, 30], [30.0, 50.0, 20.0, 3.0, 40, 64, 24], [55.0, 40.0, 10.0, 2.5, 20, 78, 30]]
+    )
     df = pd.DataFrame(X, columns=list(DESIGN_VARS))
     df.insert(0, "algo", ["nsga3", "moead+nsga3", "moga"])
     df.insert(0, "design_id", ["nsga3-1", "moead-4", "moga-0"])
@@ -147,8 +187,9 @@ def test_validation_table_has_one_row_per_vehicle_and_cycle(tmp_path):
 
 
 def test_summary_reports_the_study_table_and_downsizing():
-    table = validation_table(FakeSimulator(), _selected(), [_cycle("ftp"), _cycle("hwfet")],
-                             np.array([43.0, 31.0, 15.0, 3.93, 25, 78, 30]))
+    table = validation_table(
+        FakeSimulator(), _selected(), [_cycle("ftp"), _cycle("hwfet")], np.array([43.0, 31.0, 15.0, 3.93, 25, 78, 30])
+    )
     s = summarise(table, ["nsga3", "moead", "moga"], ["ftp", "hwfet"], 70.0)
     assert s["cycle"] == "ftp" and set(s["improvement"]) == {"nsga3", "moead", "moga", "all"}
     assert set(s["improvement"]["all"]["vs_prius"]) == set(IMPROVEMENT_RESPONSES)
@@ -161,8 +202,9 @@ def test_summary_reports_the_study_table_and_downsizing():
     assert s["counts"]["cycle_met"]["ftp"] == {"picked": 2, "conventional": True, "prius": True}
     assert "hwfet" in s["by_cycle"] and "ftp" not in s["by_cycle"]
     json.dumps(s)  # plain JSON types only
-    pareto = select_designs({"nsga3": synthetic_front(40, 1)},
-                            ScreenParams(n_keep=5, n_pick=3, speed_dev_max=1.0, mass_max_kg=2000)).summary
+    pareto = select_designs(
+        {"nsga3": synthetic_front(40, 1)}, ScreenParams(n_keep=5, n_pick=3, speed_dev_max=1.0, mass_max_kg=2000)
+    ).summary
     text = build_summary(pareto, s, table, _selected().assign(rank=[1, 2, 3]), {"Trade-offs": "plots/x.png"})
     assert "| m_veh | % |" in text and "n/a" in text and "![Trade-offs](plots/x.png)" in text
     assert "## Robustness check: hwfet" in text and "moga-0" in text and "conventional" in text
@@ -187,9 +229,10 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
     assert runner.invoke(app, ["validate"]).exit_code == 1  # nothing there yet: one-line error
     for name in ("ftp", "hwfet"):
         _cycle(name).to_parquet(f"data/cycles/{name}.parquet")
-    res = select_designs({"nsga3": synthetic_front(40, 1), "moead": synthetic_front(30, 2),
-                          "moga": synthetic_front(30, 3)},
-                         ScreenParams(n_keep=10, n_pick=4, speed_dev_max=1.0, mass_max_kg=2000))
+    res = select_designs(
+        {"nsga3": synthetic_front(40, 1), "moead": synthetic_front(30, 2), "moga": synthetic_front(30, 3)},
+        ScreenParams(n_keep=10, n_pick=4, speed_dev_max=1.0, mass_max_kg=2000),
+    )
     write_parquet("data/pareto/selected.parquet", res.selected)
     Path("reports").mkdir()
     Path("reports/pareto.json").write_text(json.dumps(res.summary))

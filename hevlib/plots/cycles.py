@@ -18,12 +18,23 @@ def plot_speed_traces(cycles: Sequence[Cycle], path: str | os.PathLike) -> None:
         ax.plot(cyc.time_s, cyc.speed_mps * 3.6, lw=0.8, color="C0")
         off = ~cyc.key_on
         if np.any(off):
-            ax.fill_between(cyc.time_s, 0, 1, where=off, transform=ax.get_xaxis_transform(),
-                            color="0.85", step="mid", label="key off")
+            ax.fill_between(
+                cyc.time_s,
+                0,
+                1,
+                where=off,
+                transform=ax.get_xaxis_transform(),
+                color="0.85",
+                step="mid",
+                label="key off",
+            )
             ax.legend(loc="upper right", fontsize=8)
         s = cyc.summary()
-        ax.set_title(f"{cyc.name.upper()}: {s['distance_km']:.3f} km in {s['duration_s']:.0f} s, "
-                     f"mean {s['v_mean_kmh']:.1f} km/h, grade {100 * s['grade']:g} %", fontsize=10)
+        ax.set_title(
+            f"{cyc.name.upper()}: {s['distance_km']:.3f} km in {s['duration_s']:.0f} s, "
+            f"mean {s['v_mean_kmh']:.1f} km/h, grade {100 * s['grade']:g} %",
+            fontsize=10,
+        )
         ax.set_ylabel("speed (km/h)")
         ax.set_xlim(cyc.time_s[0], cyc.time_s[-1])
         ax.set_ylim(bottom=0)

@@ -42,8 +42,7 @@ def front_figure(table: pd.DataFrame, norm: Normalisation, *, title: str = "") -
     pred = norm(to_minimisation(table[[f"pred_{k}" for k in OBJECTIVES]].to_numpy(float)))
     sim = norm(to_minimisation(table[[f"sim_{k}" for k in OBJECTIVES]].to_numpy(float)))
     pos = np.arange(len(OBJECTIVES))
-    for data, offset, colour, label in ((pred, -0.2, "tab:orange", "predicted"),
-                                        (sim, 0.2, "tab:blue", "simulated")):
+    for data, offset, colour, label in ((pred, -0.2, "tab:orange", "predicted"), (sim, 0.2, "tab:blue", "simulated")):
         cols = [c[np.isfinite(c)] for c in data.T]
         if all(len(c) for c in cols):
             bp = ax.boxplot(cols, positions=pos + offset, widths=0.35, patch_artist=True, showfliers=False)

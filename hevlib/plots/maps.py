@@ -26,8 +26,9 @@ def _full_load(ax, speed_rad_s: np.ndarray, max_torque_nm: np.ndarray, label: st
     ax.plot(speed_rad_s / RPM, max_torque_nm, "k-", lw=1.8, label=label)
 
 
-def plot_engine_map(engine: EngineMap, path: str | os.PathLike, *,
-                    operating_line: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+def plot_engine_map(
+    engine: EngineMap, path: str | os.PathLike, *, operating_line: tuple[np.ndarray, np.ndarray] | None = None
+) -> None:
     """BSFC contours (g/kWh, at or below full load), full-load curve and the best-efficiency line.
 
     ``operating_line`` = (power_w, speed_rad_s) of a reference line (ADVISOR's Prius line) to compare.
@@ -56,8 +57,11 @@ def plot_engine_map(engine: EngineMap, path: str | os.PathLike, *,
     ax.set_ylim(0, float(np.max(engine.max_torque_nm)) * 1.08)
     ax.set_xlabel("engine speed (rpm)")
     ax.set_ylabel("torque (N m)")
-    ax.set_title(f"{engine.name}: BSFC (g/kWh), {engine.peak_power_kw:.1f} kW, "
-                 f"min {b_min:.1f} g/kWh = {100 * engine.max_efficiency():.1f} % efficiency", fontsize=10)
+    ax.set_title(
+        f"{engine.name}: BSFC (g/kWh), {engine.peak_power_kw:.1f} kW, "
+        f"min {b_min:.1f} g/kWh = {100 * engine.max_efficiency():.1f} % efficiency",
+        fontsize=10,
+    )
     ax.legend(loc="lower right", fontsize=8)
     ax.grid(alpha=0.3)
     save_figure(fig, path)
@@ -92,8 +96,10 @@ def plot_machine_map(machine: MachineMap, path: str | os.PathLike, *, role: str)
     _full_load(ax, machine.speed_rad_s, machine.max_torque_nm, label="torque limit")
     ax.set_xlabel(f"{role} speed (rpm)")
     ax.set_ylabel("|torque| (N m)")
-    ax.set_title(f"{machine.name} ({role}): {machine.peak_power_kw:.1f} kW peak, "
-                 f"max efficiency {machine.efficiency.max():.3f}", fontsize=10)
+    ax.set_title(
+        f"{machine.name} ({role}): {machine.peak_power_kw:.1f} kW peak, max efficiency {machine.efficiency.max():.3f}",
+        fontsize=10,
+    )
     ax.legend(loc="upper right", fontsize=8)
     ax.grid(alpha=0.3)
     save_figure(fig, path)
@@ -104,8 +110,9 @@ def write_map_plots(lib: ComponentLibrary, out_dir: str | os.PathLike) -> list[P
     out = Path(out_dir)
     paths = [out / f"maps_{k}.png" for k in ("engine", "emissions", "motor", "generator")]
     ps = lib.power_split
-    plot_engine_map(lib.engine_hybrid, paths[0],
-                    operating_line=(ps.operating_line_power_w, ps.operating_line_speed_rad_s))
+    plot_engine_map(
+        lib.engine_hybrid, paths[0], operating_line=(ps.operating_line_power_w, ps.operating_line_speed_rad_s)
+    )
     plot_emission_maps(lib.engine_hybrid, paths[1])
     plot_machine_map(lib.motor, paths[2], role="motor")
     plot_machine_map(lib.generator, paths[3], role="generator")

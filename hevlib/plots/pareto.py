@@ -13,7 +13,11 @@ from hevlib.plots import plt
 
 #: Objective pairs (x, y) of the trade-off figure, as in the study.
 TRADEOFF_PAIRS: tuple[tuple[str, str], ...] = (
-    ("diff_soc", "fc"), ("co", "hc"), ("nox", "co"), ("f_max", "v_max"), ("speed_dev", "m_veh"),
+    ("diff_soc", "fc"),
+    ("co", "hc"),
+    ("nox", "co"),
+    ("f_max", "v_max"),
+    ("speed_dev", "m_veh"),
     ("accel_dev", "e_l"),
 )
 SHARED = "shared"
@@ -34,8 +38,9 @@ def _colour_groups(kept: pd.DataFrame, algos: Sequence[str]) -> dict[str, np.nda
     return groups
 
 
-def tradeoffs_figure(kept: pd.DataFrame, algos: Sequence[str],
-                     pairs: Sequence[tuple[str, str]] = TRADEOFF_PAIRS) -> plt.Figure:
+def tradeoffs_figure(
+    kept: pd.DataFrame, algos: Sequence[str], pairs: Sequence[tuple[str, str]] = TRADEOFF_PAIRS
+) -> plt.Figure:
     """Scatter of simulated objectives in pairs for the kept designs, coloured by algorithm;
     picked designs (``picked`` column) are ringed."""
     ncol = 3
@@ -47,12 +52,19 @@ def tradeoffs_figure(kept: pd.DataFrame, algos: Sequence[str],
         for name, mask in groups.items():
             ax.scatter(kept.loc[mask, f"{SIM}{x}"], kept.loc[mask, f"{SIM}{y}"], s=18, alpha=0.75, label=name)
         if picked.any():
-            ax.scatter(kept.loc[picked, f"{SIM}{x}"], kept.loc[picked, f"{SIM}{y}"], s=60, facecolors="none",
-                       edgecolors="k", linewidths=0.9, label="picked")
+            ax.scatter(
+                kept.loc[picked, f"{SIM}{x}"],
+                kept.loc[picked, f"{SIM}{y}"],
+                s=60,
+                facecolors="none",
+                edgecolors="k",
+                linewidths=0.9,
+                label="picked",
+            )
         ax.set_xlabel(_label(x))
         ax.set_ylabel(_label(y))
         ax.grid(alpha=0.3)
-    for ax in list(axes.flat)[len(pairs):]:
+    for ax in list(axes.flat)[len(pairs) :]:
         ax.set_visible(False)
     if len(kept):
         axes.flat[0].legend(fontsize=7, loc="best")
@@ -60,8 +72,9 @@ def tradeoffs_figure(kept: pd.DataFrame, algos: Sequence[str],
     return fig
 
 
-def distributions_figure(kept: pd.DataFrame, algos: Sequence[str],
-                         objectives: Sequence[str] = OBJECTIVES) -> plt.Figure:
+def distributions_figure(
+    kept: pd.DataFrame, algos: Sequence[str], objectives: Sequence[str] = OBJECTIVES
+) -> plt.Figure:
     """One histogram per objective of the kept designs, stacked by algorithm (shared designs apart)."""
     ncol = 4
     nrow = int(np.ceil(len(objectives) / ncol))
@@ -77,7 +90,7 @@ def distributions_figure(kept: pd.DataFrame, algos: Sequence[str],
             ax.hist([d[np.isfinite(d)] for d in data], bins=bins, stacked=True, label=list(groups))
         ax.set_xlabel(_label(key))
         ax.grid(alpha=0.3)
-    for ax in list(axes.flat)[len(objectives):]:
+    for ax in list(axes.flat)[len(objectives) :]:
         ax.set_visible(False)
     axes.flat[0].set_ylabel("designs")
     if len(kept):
@@ -91,8 +104,12 @@ def tradeoff_data(kept: pd.DataFrame, algo: str, objectives: Sequence[str] = OBJ
     per objective (plain names, sizing-cycle units) plus ``design_id`` and ``picked``."""
     mask = np.array([algo in algo_names(a) for a in kept["algo"]], dtype=bool)
     rows = kept.loc[mask]
-    out = pd.DataFrame({"design_id": rows["design_id"].astype(str).to_numpy(),
-                        "picked": rows["picked"].astype(int).to_numpy() if "picked" in rows else 0})
+    out = pd.DataFrame(
+        {
+            "design_id": rows["design_id"].astype(str).to_numpy(),
+            "picked": rows["picked"].astype(int).to_numpy() if "picked" in rows else 0,
+        }
+    )
     for key in objectives:
         out[key] = rows[f"{SIM}{key}"].to_numpy(dtype=float)
     return out

@@ -18,13 +18,20 @@ from hevlib.surrogates.evaluation import followers
 from hevlib.surrogates.metrics import r2_score, spearman
 
 #: Point styles per data split, drawn in this order (held-out on top).
-_STYLE = {"train": dict(color="0.6", marker=".", s=10, alpha=0.6),
-          "test": dict(color="tab:blue", marker="x", s=14, alpha=0.8),
-          "heldout": dict(facecolors="none", edgecolors="tab:red", marker="o", s=14, alpha=0.8)}
+_STYLE = {
+    "train": dict(color="0.6", marker=".", s=10, alpha=0.6),
+    "test": dict(color="tab:blue", marker="x", s=14, alpha=0.8),
+    "heldout": dict(facecolors="none", edgecolors="tab:red", marker="o", s=14, alpha=0.8),
+}
 
 
-def parity_figure(sets: dict[str, tuple[np.ndarray, np.ndarray]], title: str, *,
-                  log_objectives: tuple[str, ...] = (), speed_dev_max: float | None = None) -> plt.Figure:
+def parity_figure(
+    sets: dict[str, tuple[np.ndarray, np.ndarray]],
+    title: str,
+    *,
+    log_objectives: tuple[str, ...] = (),
+    speed_dev_max: float | None = None,
+) -> plt.Figure:
     """Predicted against simulated value for every objective (one panel each, 3 x 4 grid).
 
     ``sets`` maps a split name (``train``, ``test``, ``heldout``) to ``(Y_true, Y_pred)``, (n, 11) in
@@ -34,8 +41,10 @@ def parity_figure(sets: dict[str, tuple[np.ndarray, np.ndarray]], title: str, *,
     """
     fig, axes = plt.subplots(3, 4, figsize=(13, 9.5))
     ref = "heldout" if "heldout" in sets else list(sets)[-1]
-    follows = {name: (np.ones(len(yt), bool) if speed_dev_max is None else followers(yt, speed_dev_max))
-               for name, (yt, _) in sets.items()}
+    follows = {
+        name: (np.ones(len(yt), bool) if speed_dev_max is None else followers(yt, speed_dev_max))
+        for name, (yt, _) in sets.items()
+    }
     for k, (obj, ax) in enumerate(zip(OBJECTIVES, axes.flat, strict=False)):
         lo, hi = np.inf, -np.inf
         for name, (yt, yp) in sets.items():
@@ -64,7 +73,7 @@ def parity_figure(sets: dict[str, tuple[np.ndarray, np.ndarray]], title: str, *,
     legend_ax = axes.flat[len(OBJECTIVES)]
     legend_ax.axis("off")
     entries = {}
-    for ax in axes.flat[:len(OBJECTIVES)]:
+    for ax in axes.flat[: len(OBJECTIVES)]:
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             entries.setdefault(lab, h)
     legend_ax.legend(list(entries.values()), list(entries), loc="center", title=title, fontsize=8)
@@ -83,8 +92,13 @@ def _symlog(ax, values: np.ndarray) -> None:
 def training_curve_figure(history: dict[str, np.ndarray], n_weights: int | None = None) -> plt.Figure:
     """E_D, E_W, alpha, beta and gamma against epoch (log scale except gamma)."""
     keys = ("e_d", "e_w", "alpha", "beta", "gamma")
-    labels = {"e_d": "E$_D$ (sum sq. std. residuals)", "e_w": "E$_W$ (sum sq. weights)", "alpha": r"$\alpha$",
-              "beta": r"$\beta$", "gamma": r"$\gamma$ (effective parameters)"}
+    labels = {
+        "e_d": "E$_D$ (sum sq. std. residuals)",
+        "e_w": "E$_W$ (sum sq. weights)",
+        "alpha": r"$\alpha$",
+        "beta": r"$\beta$",
+        "gamma": r"$\gamma$ (effective parameters)",
+    }
     epoch = np.arange(1, len(history["e_d"]) + 1)
     fig, axes = plt.subplots(1, 5, figsize=(16, 3.4))
     for key, ax in zip(keys, axes, strict=True):
@@ -106,9 +120,12 @@ def surrogate_figures(study) -> dict[str, plt.Figure]:
     plots use symmetric-log axes for the BNN's log-transformed objectives."""
     bnn = study.models["bnn"]
     figures = {
-        f"parity_{m}.png": parity_figure({s: (study.data[s][1], pred[s]) for s in ("train", "heldout")},
-                                         title=f"{m}: predicted vs simulated", log_objectives=bnn.log_targets,
-                                         speed_dev_max=study.speed_dev_max)
+        f"parity_{m}.png": parity_figure(
+            {s: (study.data[s][1], pred[s]) for s in ("train", "heldout")},
+            title=f"{m}: predicted vs simulated",
+            log_objectives=bnn.log_targets,
+            speed_dev_max=study.speed_dev_max,
+        )
         for m, pred in study.predictions.items()
     }
     figures["bnn_training.png"] = training_curve_figure(bnn.history_, n_weights=bnn.n_weights_)

@@ -12,28 +12,34 @@ from hevlib.plots import plt
 MPS_TO_KMH = 3.6
 
 
-def improvement_figure(improvement: Mapping[str, Mapping[str, Mapping[str, float | None]]],
-                       cycle: str) -> plt.Figure:
+def improvement_figure(improvement: Mapping[str, Mapping[str, Mapping[str, float | None]]], cycle: str) -> plt.Figure:
     """Grouped bars of mean improvement per response ('+' = better), one panel per baseline.
 
     ``improvement`` is ``{group: {"vs_<baseline>": {response: value or None}}}`` (missing -> no bar).
     """
     groups = list(improvement)
     comparisons = list(next(iter(improvement.values()))) if groups else []
-    fig, axes = plt.subplots(len(comparisons) or 1, 1, figsize=(11, 3.4 * max(len(comparisons), 1)),
-                             squeeze=False)
+    fig, axes = plt.subplots(len(comparisons) or 1, 1, figsize=(11, 3.4 * max(len(comparisons), 1)), squeeze=False)
     for ax, comp in zip(axes[:, 0], comparisons, strict=False):
         responses = list(improvement[groups[0]][comp])
         width = 0.8 / len(groups)
         x = np.arange(len(responses))
         for i, g in enumerate(groups):
-            vals = np.array([np.nan if improvement[g][comp][r] is None else improvement[g][comp][r]
-                             for r in responses], dtype=float)
+            vals = np.array(
+                [np.nan if improvement[g][comp][r] is None else improvement[g][comp][r] for r in responses], dtype=float
+            )
             ax.bar(x + (i - (len(groups) - 1) / 2) * width, np.nan_to_num(vals), width, label=g)
             for xi, v in zip(x, vals, strict=True):
                 if not np.isfinite(v):
-                    ax.text(xi + (i - (len(groups) - 1) / 2) * width, 0, "n/a", ha="center", va="bottom",
-                            fontsize=6, rotation=90)
+                    ax.text(
+                        xi + (i - (len(groups) - 1) / 2) * width,
+                        0,
+                        "n/a",
+                        ha="center",
+                        va="bottom",
+                        fontsize=6,
+                        rotation=90,
+                    )
         ax.axhline(0, color="k", lw=0.7)
         ax.set_xticks(x, responses, rotation=20)
         ax.set_ylabel("improvement [%]  (diff_soc: SOC points)")
@@ -59,8 +65,7 @@ def traces_figure(traces: Mapping[str, pd.DataFrame], cycle: str) -> plt.Figure:
             axes[1].plot(t, tr["soc"], lw=0.9, color=colour, label=label)
         if "fuel_g_s" in tr:
             dt = np.diff(t, prepend=t[0])
-            axes[2].plot(t, np.cumsum(tr["fuel_g_s"].to_numpy(dtype=float) * dt), lw=0.9, color=colour,
-                         label=label)
+            axes[2].plot(t, np.cumsum(tr["fuel_g_s"].to_numpy(dtype=float) * dt), lw=0.9, color=colour, label=label)
     axes[0].set_ylabel("speed [km/h]")
     axes[1].set_ylabel("SOC [-]")
     axes[2].set_ylabel("fuel used [g]")

@@ -23,9 +23,20 @@ def current_for_power(p_w: float, voc: float, r_dis: float, r_chg: float) -> flo
 
 
 @njit(cache=True, inline="always")
-def power_limits(voc: float, r_dis: float, r_chg: float, v_min: float, v_max: float, i_max: float,
-                 soc: float, soc_min: float, soc_max: float, capacity_as: float, eta_c: float,
-                 dt: float) -> tuple[float, float]:
+def power_limits(
+    voc: float,
+    r_dis: float,
+    r_chg: float,
+    v_min: float,
+    v_max: float,
+    i_max: float,
+    soc: float,
+    soc_min: float,
+    soc_max: float,
+    capacity_as: float,
+    eta_c: float,
+    dt: float,
+) -> tuple[float, float]:
     """(max discharge, max charge) terminal power in W, both >= 0.
 
     Limits: terminal voltage within [v_min, v_max], |current| <= i_max, matched-load power, and the

@@ -18,11 +18,11 @@ from hevlib.powertrain.engine import EngineArrays, max_torque
 
 class ConvDesign(NamedTuple):
     s_eng: float
-    r: float               # wheel radius, m
-    w_idle: float          # rad/s
-    w_launch: float        # engine speed held while the clutch slips, rad/s
+    r: float  # wheel radius, m
+    w_idle: float  # rad/s
+    w_launch: float  # engine speed held while the clutch slips, rad/s
     w_e_max: float
-    p_acc_w: float         # mechanical accessory load on the engine, W
+    p_acc_w: float  # mechanical accessory load on the engine, W
     gb_a: float
     gb_b: float
     gb_c: float
@@ -32,12 +32,12 @@ class ConvDesign(NamedTuple):
 
 
 class ConvState(NamedTuple):
-    f_del: float           # wheel force, N (>= 0; braking is all friction)
+    f_del: float  # wheel force, N (>= 0; braking is all friction)
     engaged: bool
     w_e: float
-    t_e: float             # engine torque incl. accessory, N m
-    w_in: float            # gearbox input speed, rad/s
-    t_in: float            # gearbox input torque (clutch torque), N m
+    t_e: float  # engine torque incl. accessory, N m
+    w_in: float  # gearbox input speed, rad/s
+    t_in: float  # gearbox input torque (clutch torque), N m
     loss_gb_w: float
     loss_clutch_w: float
 
@@ -47,7 +47,7 @@ def gearbox_loss(w_out: float, t_out: float, ratio: float, d: ConvDesign) -> flo
     if w_out <= 0.0:
         return 0.0
     t = abs(t_out)
-    p = ((d.gb_a * ratio + d.gb_b) * w_out + (d.gb_c / ratio + d.gb_d) * t + d.gb_e * w_out * t + d.gb_f)
+    p = (d.gb_a * ratio + d.gb_b) * w_out + (d.gb_c / ratio + d.gb_d) * t + d.gb_e * w_out * t + d.gb_f
     return max(p, 0.0)
 
 
@@ -68,7 +68,7 @@ def dispatch(v: float, f_req: float, ratio: float, d: ConvDesign, E: EngineArray
     t_out = f_req * d.r
     loss = gearbox_loss(w_out, t_out, ratio, d)
     t_in = (t_out * w_out + loss) / w_in if w_in > 0.0 else t_out / ratio
-    w_e = max(w_in, d.w_launch)          # below the launch speed the clutch slips
+    w_e = max(w_in, d.w_launch)  # below the launch speed the clutch slips
     t_acc = d.p_acc_w / w_e
     t_cap = max_torque(w_e, d.s_eng, E) - t_acc
     if t_in > t_cap:

@@ -18,18 +18,18 @@ class EngineArrays(NamedTuple):
     """Base (unscaled) engine tables as the kernels see them, on uniform grids (speed ``w0 + dw i``,
     torque ``dt j`` from 0); rates in g/s."""
 
-    w0: float              # speed grid, rad/s
+    w0: float  # speed grid, rad/s
     dw: float
-    dt: float              # torque grid step from 0, N m
-    t_max: np.ndarray      # full-load torque on the speed grid, N m
-    fuel: np.ndarray       # g/s
+    dt: float  # torque grid step from 0, N m
+    t_max: np.ndarray  # full-load torque on the speed grid, N m
+    fuel: np.ndarray  # g/s
     hc: np.ndarray
     co: np.ndarray
     nox: np.ndarray
-    line_p: np.ndarray     # best-efficiency line: shaft power, W (uniform grid from 0)
-    line_w: np.ndarray     # ... and the speed that burns least fuel at that power, rad/s
-    line_t: np.ndarray     # ... and its torque (line_p / line_w), N m, increasing with power
-    t_drag: np.ndarray     # closed-throttle (motored, fuel cut) torque on the speed grid, N m, <= 0
+    line_p: np.ndarray  # best-efficiency line: shaft power, W (uniform grid from 0)
+    line_w: np.ndarray  # ... and the speed that burns least fuel at that power, rad/s
+    line_t: np.ndarray  # ... and its torque (line_p / line_w), N m, increasing with power
+    t_drag: np.ndarray  # closed-throttle (motored, fuel cut) torque on the speed grid, N m, <= 0
 
 
 @njit(cache=True, inline="always")
@@ -62,5 +62,9 @@ def rates(w: float, t: float, s: float, e: EngineArrays) -> tuple[float, float, 
     """(fuel, hc, co, nox) in g/s at speed ``w`` and torque ``t`` (>= 0) of the engine scaled by ``s``."""
     i, fx = cell(w, e.w0, e.dw, e.fuel.shape[0])
     j, fy = cell(t / s, 0.0, e.dt, e.fuel.shape[1])
-    return (s * blend(e.fuel, i, j, fx, fy), s * blend(e.hc, i, j, fx, fy),
-            s * blend(e.co, i, j, fx, fy), s * blend(e.nox, i, j, fx, fy))
+    return (
+        s * blend(e.fuel, i, j, fx, fy),
+        s * blend(e.hc, i, j, fx, fy),
+        s * blend(e.co, i, j, fx, fy),
+        s * blend(e.nox, i, j, fx, fy),
+    )

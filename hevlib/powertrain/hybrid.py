@@ -36,41 +36,41 @@ class SplitDesign(NamedTuple):
     i0: float
     n_r: float
     n_s: float
-    r: float               # wheel radius, m
-    w_e_min: float         # lowest running engine speed, rad/s
+    r: float  # wheel radius, m
+    w_e_min: float  # lowest running engine speed, rad/s
     w_e_max: float
     w_m_max: float
     w_g_max: float
-    eta_pg: float          # planetary gear set (carrier -> ring path)
-    eta_fd: float          # final drive
-    p_acc_w: float         # electrical accessory load
+    eta_pg: float  # planetary gear set (carrier -> ring path)
+    eta_fd: float  # final drive
+    p_acc_w: float  # electrical accessory load
 
 
 class SplitState(NamedTuple):
-    f_del: float           # wheel force the driveline delivers, N (negative = regenerative braking)
-    running: bool          # engine turning under its own power
+    f_del: float  # wheel force the driveline delivers, N (negative = regenerative braking)
+    running: bool  # engine turning under its own power
     w_e: float
     t_e: float
-    w_r: float             # ring = motor speed
+    w_r: float  # ring = motor speed
     t_m: float
     w_g: float
     t_g: float
-    p_m_e: float           # motor electrical power, W (+ drawn)
-    p_g_e: float           # generator electrical power, W (+ drawn)
-    p_acc: float           # accessory power actually served, W
-    p_batt: float          # battery terminal power, W (+ discharge)
-    t_r: float             # total ring torque, N m
+    p_m_e: float  # motor electrical power, W (+ drawn)
+    p_g_e: float  # generator electrical power, W (+ drawn)
+    p_acc: float  # accessory power actually served, W
+    p_batt: float  # battery terminal power, W (+ discharge)
+    t_r: float  # total ring torque, N m
 
 
 class SplitLimits(NamedTuple):
     """What the driveline can do at one vehicle speed (computed once per speed, shared by the
     supervisor and every dispatch at that speed)."""
 
-    w_r: float             # ring (motor) speed, rad/s
-    t_m_cap: float         # motor torque limit, N m
-    lo: float              # engine speed window (lo > hi: the engine cannot run)
+    w_r: float  # ring (motor) speed, rad/s
+    t_m_cap: float  # motor torque limit, N m
+    lo: float  # engine speed window (lo > hi: the engine cannot run)
     hi: float
-    p_e_max: float         # most engine power at this speed, W
+    p_e_max: float  # most engine power at this speed, W
 
 
 @njit(cache=True, inline="always")
@@ -117,8 +117,18 @@ def limits(v: float, d: SplitDesign, E: EngineArrays, M: MachineArrays, G: Machi
 
 
 @njit(cache=True)
-def _engine_on(p_e: float, lo: float, hi: float, w_r: float, t_r_drive: float, t_m_cap: float,
-               d: SplitDesign, E: EngineArrays, M: MachineArrays, G: MachineArrays):
+def _engine_on(
+    p_e: float,
+    lo: float,
+    hi: float,
+    w_r: float,
+    t_r_drive: float,
+    t_m_cap: float,
+    d: SplitDesign,
+    E: EngineArrays,
+    M: MachineArrays,
+    G: MachineArrays,
+):
     """Operating point with the engine delivering (up to) ``p_e`` on its best-efficiency line."""
     k = d.n_r / d.n_s
     w_e = min(max(line_speed(p_e, d.s_eng, E), lo), hi)
@@ -140,9 +150,23 @@ def _engine_on(p_e: float, lo: float, hi: float, w_r: float, t_r_drive: float, t
 
 
 @njit(cache=True)
-def _engine_power_for_battery(p_a: float, g_a: float, p_b: float, g_b: float, sign: float, target: float,
-                              lo: float, hi: float, w_r: float, t_r_drive: float, t_m_cap: float,
-                              d: SplitDesign, E: EngineArrays, M: MachineArrays, G: MachineArrays) -> float:
+def _engine_power_for_battery(
+    p_a: float,
+    g_a: float,
+    p_b: float,
+    g_b: float,
+    sign: float,
+    target: float,
+    lo: float,
+    hi: float,
+    w_r: float,
+    t_r_drive: float,
+    t_m_cap: float,
+    d: SplitDesign,
+    E: EngineArrays,
+    M: MachineArrays,
+    G: MachineArrays,
+) -> float:
     """Engine power at which the battery power meets a limit: root of ``g(p) = sign (P_batt(p) - target)``
     between ``p_a`` (``g_a > 0``, violating) and ``p_b`` (``g_b <= 0``, feasible); returns a feasible end.
 
@@ -190,9 +214,19 @@ def _less_circulation(t_e: float, w_g: float, p_m_e: float, p_dis: float, d: Spl
 
 
 @njit(cache=True)
-def dispatch(lim: SplitLimits, f_req: float, engine_on: bool, p_e_target: float, p_dis: float, p_chg: float,
-             regen_frac: float, d: SplitDesign, E: EngineArrays, M: MachineArrays,
-             G: MachineArrays) -> SplitState:
+def dispatch(
+    lim: SplitLimits,
+    f_req: float,
+    engine_on: bool,
+    p_e_target: float,
+    p_dis: float,
+    p_chg: float,
+    regen_frac: float,
+    d: SplitDesign,
+    E: EngineArrays,
+    M: MachineArrays,
+    G: MachineArrays,
+) -> SplitState:
     """Operating point at the speed of ``lim`` (:func:`limits`) for wheel force ``f_req`` within every limit.
 
     ``p_dis``/``p_chg``: battery discharge/charge power limits (W, >= 0). ``regen_frac``: share of a
@@ -206,8 +240,7 @@ def dispatch(lim: SplitLimits, f_req: float, engine_on: bool, p_e_target: float,
 
     if running:
         p_e = p_e_target
-        w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = _engine_on(p_e, lo, hi, w_r, t_r_drive, t_m_cap,
-                                                                   d, E, M, G)
+        w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = _engine_on(p_e, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G)
         p_batt = p_m_e + p_g_e + p_acc
         if p_batt > p_dis:
             # more engine power first (battery power falls as engine power rises) ...
@@ -215,11 +248,16 @@ def dispatch(lim: SplitLimits, f_req: float, engine_on: bool, p_e_target: float,
             if p_hi > p_e:
                 st = _engine_on(p_hi, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G)
                 h_hi = st[6] + st[7] + p_acc
-                p_new = p_hi if h_hi > p_dis else _engine_power_for_battery(
-                    p_e, p_batt - p_dis, p_hi, h_hi - p_dis, 1.0, p_dis, lo, hi, w_r, t_r_drive, t_m_cap,
-                    d, E, M, G)
-                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = _engine_on(p_new, lo, hi, w_r, t_r_drive,
-                                                                           t_m_cap, d, E, M, G)
+                p_new = (
+                    p_hi
+                    if h_hi > p_dis
+                    else _engine_power_for_battery(
+                        p_e, p_batt - p_dis, p_hi, h_hi - p_dis, 1.0, p_dis, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G
+                    )
+                )
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = _engine_on(
+                    p_new, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G
+                )
                 p_batt = p_m_e + p_g_e + p_acc
             if p_batt > p_dis and t_m > 0.0:
                 # ... then less motor torque
@@ -241,10 +279,26 @@ def dispatch(lim: SplitLimits, f_req: float, engine_on: bool, p_e_target: float,
             if h0 < -p_chg:
                 w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = st0
             else:
-                p_new = _engine_power_for_battery(p_e, -(p_batt + p_chg), 0.0, -(h0 + p_chg), -1.0, -p_chg,
-                                                  lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G)
-                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = _engine_on(p_new, lo, hi, w_r, t_r_drive,
-                                                                           t_m_cap, d, E, M, G)
+                p_new = _engine_power_for_battery(
+                    p_e,
+                    -(p_batt + p_chg),
+                    0.0,
+                    -(h0 + p_chg),
+                    -1.0,
+                    -p_chg,
+                    lo,
+                    hi,
+                    w_r,
+                    t_r_drive,
+                    t_m_cap,
+                    d,
+                    E,
+                    M,
+                    G,
+                )
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = _engine_on(
+                    p_new, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G
+                )
             p_batt = p_m_e + p_g_e + p_acc
             if p_batt < -p_chg and t_m < 0.0:
                 # ... then less regenerative torque (friction brakes take the rest)
@@ -283,5 +337,6 @@ def dispatch(lim: SplitLimits, f_req: float, engine_on: bool, p_e_target: float,
             p_m_e = electric_power(t_m, w_r, d.s_mot, M)
         p_batt = p_m_e + p_g_e + p_acc
         t_r = t_r_eng + t_m
-    return SplitState(wheel_force_for_ring_torque(t_r, d), running, w_e, t_e, w_r, t_m, w_g, t_g,
-                      p_m_e, p_g_e, p_acc, p_batt, t_r)
+    return SplitState(
+        wheel_force_for_ring_torque(t_r, d), running, w_e, t_e, w_r, t_m, w_g, t_g, p_m_e, p_g_e, p_acc, p_batt, t_r
+    )

@@ -49,8 +49,9 @@ def interp1(x: float, xs: np.ndarray, ys: np.ndarray) -> float:
 @njit(cache=True, inline="always")
 def blend(z: np.ndarray, i: int, j: int, fx: float, fy: float) -> float:
     """Bilinear blend of z around cell (i, j) with fractions (fx, fy) from :func:`bracket`."""
-    return ((1.0 - fx) * ((1.0 - fy) * z[i, j] + fy * z[i, j + 1])
-            + fx * ((1.0 - fy) * z[i + 1, j] + fy * z[i + 1, j + 1]))
+    return (1.0 - fx) * ((1.0 - fy) * z[i, j] + fy * z[i, j + 1]) + fx * (
+        (1.0 - fy) * z[i + 1, j] + fy * z[i + 1, j + 1]
+    )
 
 
 @njit(cache=True, inline="always")
@@ -89,8 +90,9 @@ def uniform_axis(axis: np.ndarray, *, max_points: int = 256, rtol: float = 1e-9)
     return np.linspace(axis[0], axis[-1], max_points)
 
 
-def resample(xs: np.ndarray, ys: np.ndarray | None, z: np.ndarray, gx: np.ndarray,
-             gy: np.ndarray | None = None) -> np.ndarray:
+def resample(
+    xs: np.ndarray, ys: np.ndarray | None, z: np.ndarray, gx: np.ndarray, gy: np.ndarray | None = None
+) -> np.ndarray:
     """Table ``z`` on axes (xs[, ys]) re-read (linearly / bilinearly, clamped) on the grid (gx[, gy])."""
     if ys is None:
         return np.interp(gx, xs, z)
@@ -108,5 +110,4 @@ def interp_map(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, x, y) -> np.ndarra
     j = np.clip(np.searchsorted(ys, y, side="right") - 1, 0, len(ys) - 2)
     fx = (x - xs[i]) / (xs[i + 1] - xs[i])
     fy = (y - ys[j]) / (ys[j + 1] - ys[j])
-    return ((1 - fx) * ((1 - fy) * z[i, j] + fy * z[i, j + 1])
-            + fx * ((1 - fy) * z[i + 1, j] + fy * z[i + 1, j + 1]))
+    return (1 - fx) * ((1 - fy) * z[i, j] + fy * z[i, j + 1]) + fx * ((1 - fy) * z[i + 1, j] + fy * z[i + 1, j + 1])

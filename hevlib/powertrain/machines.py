@@ -18,10 +18,10 @@ from hevlib.powertrain.lookup import blend, cell
 class MachineArrays(NamedTuple):
     """Base machine tables on uniform grids from 0: |speed| ``dw i``, |torque| ``dt j``."""
 
-    dw: float              # rad/s
-    dt: float              # N m
-    eff: np.ndarray        # (w, t) combined machine + inverter efficiency
-    t_max: np.ndarray      # |torque| limit on the speed grid, N m
+    dw: float  # rad/s
+    dt: float  # N m
+    eff: np.ndarray  # (w, t) combined machine + inverter efficiency
+    t_max: np.ndarray  # |torque| limit on the speed grid, N m
 
 
 @njit(cache=True, inline="always")

@@ -24,17 +24,17 @@ from numba import njit
 class Chassis(NamedTuple):
     """Per-design chassis scalars."""
 
-    m: float               # test mass, kg
-    m_eff: float           # with rotating inertia, kg
-    cda: float             # drag coefficient x frontal area, m^2
-    crr: float             # rolling-resistance coefficient
-    r: float               # wheel rolling radius, m
-    axle_drag_nm: float    # driven-axle drag torque at this mass, N m
-    h_over_l: float        # CG height / wheelbase
-    f_front: float         # static front-axle weight fraction
-    mu: float              # tyre-road adhesion coefficient
-    rho: float             # air density, kg/m^3
-    g: float               # gravity, m/s^2
+    m: float  # test mass, kg
+    m_eff: float  # with rotating inertia, kg
+    cda: float  # drag coefficient x frontal area, m^2
+    crr: float  # rolling-resistance coefficient
+    r: float  # wheel rolling radius, m
+    axle_drag_nm: float  # driven-axle drag torque at this mass, N m
+    h_over_l: float  # CG height / wheelbase
+    f_front: float  # static front-axle weight fraction
+    mu: float  # tyre-road adhesion coefficient
+    rho: float  # air density, kg/m^3
+    g: float  # gravity, m/s^2
 
 
 def grade_trig(grade: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -83,7 +83,7 @@ def mean_speed_for_force(v0: float, f: float, sin_t: float, cos_t: float, dt: fl
     f_aero_k = 0.5 * c.rho * c.cda
     _, f_roll, f_grade, f_axle = road_force(max(v0, 1e-9), sin_t, cos_t, c)
     b = 2.0 * c.m_eff / dt
-    rhs = f - f_roll - f_grade - f_axle + b * v0   # f_aero_k u^2 + b u = rhs
+    rhs = f - f_roll - f_grade - f_axle + b * v0  # f_aero_k u^2 + b u = rhs
     if rhs <= 0.0:
         return 0.5 * v0 if v0 > 0.0 else 0.0
     u = 2.0 * rhs / (b + math.sqrt(b * b + 4.0 * f_aero_k * rhs))

@@ -42,8 +42,7 @@ def check_targets(Y: np.ndarray, n: int, *, what: str = "surrogate targets") -> 
     """``Y`` as a finite float (n, 11) array in ``OBJECTIVES`` order; ValueError naming the objective."""
     Y = np.asarray(Y, dtype=float)
     if Y.ndim != 2 or Y.shape != (n, len(OBJECTIVES)):
-        raise ValueError(f"{what}: expected shape ({n}, {len(OBJECTIVES)}) in order {OBJECTIVES}, "
-                         f"got {Y.shape}")
+        raise ValueError(f"{what}: expected shape ({n}, {len(OBJECTIVES)}) in order {OBJECTIVES}, got {Y.shape}")
     for k, name in enumerate(OBJECTIVES):
         bad = ~np.isfinite(Y[:, k])
         if np.any(bad):

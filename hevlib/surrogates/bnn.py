@@ -68,8 +68,9 @@ HISTORY_KEYS = ("e_d", "e_w", "alpha", "beta", "gamma")
 LR_FINAL_FRACTION = 0.01
 
 
-def evidence_update(jtj_eigvals: np.ndarray, e_d: float, e_w: float, alpha: float, beta: float,
-                    n_residuals: int) -> tuple[float, float, float]:
+def evidence_update(
+    jtj_eigvals: np.ndarray, e_d: float, e_w: float, alpha: float, beta: float, n_residuals: int
+) -> tuple[float, float, float]:
     """One MacKay re-estimation: return ``(alpha, beta, gamma)`` from the current ones.
 
     ``jtj_eigvals`` are the eigenvalues of ``J^T J`` (length ``N_w``; tiny negative round-off is
@@ -108,8 +109,9 @@ def _init_weights(net: nn.Sequential, rng: np.random.Generator) -> None:
                 layer.bias.zero_()
 
 
-def _output_jacobian(net: nn.Sequential, x: torch.Tensor, *, body_only: bool = False
-                     ) -> tuple[torch.Tensor, torch.Tensor]:
+def _output_jacobian(
+    net: nn.Sequential, x: torch.Tensor, *, body_only: bool = False
+) -> tuple[torch.Tensor, torch.Tensor]:
     """``d f(x_i) / d w`` for every row, (n, n_out, N_w) in ``net.named_parameters()`` order, and the
     input of the output layer (n, h_last).
 
@@ -150,9 +152,17 @@ class BayesRegMLP:
 
     kind = "bnn"
 
-    def __init__(self, space: DesignSpace, hidden: tuple[int, ...] | list[int] = (20,), lr: float = 0.01,
-                 max_epochs: int = 3500, error_goal: float = 1e-10, evidence_every: int = 10, seed: int = 0,
-                 log_targets: tuple[str, ...] | list[str] = ()):
+    def __init__(
+        self,
+        space: DesignSpace,
+        hidden: tuple[int, ...] | list[int] = (20,),
+        lr: float = 0.01,
+        max_epochs: int = 3500,
+        error_goal: float = 1e-10,
+        evidence_every: int = 10,
+        seed: int = 0,
+        log_targets: tuple[str, ...] | list[str] = (),
+    ):
         self.space = space
         self.hidden = tuple(int(h) for h in hidden)
         self.lr = lr
@@ -165,8 +175,16 @@ class BayesRegMLP:
     @classmethod
     def from_params(cls, space: DesignSpace, p) -> BayesRegMLP:
         """From a ``hevlib.params.BnnParams``."""
-        return cls(space, hidden=tuple(p.hidden), lr=p.lr, max_epochs=p.max_epochs, error_goal=p.error_goal,
-                   evidence_every=p.evidence_every, seed=p.seed, log_targets=tuple(p.log_targets))
+        return cls(
+            space,
+            hidden=tuple(p.hidden),
+            lr=p.lr,
+            max_epochs=p.max_epochs,
+            error_goal=p.error_goal,
+            evidence_every=p.evidence_every,
+            seed=p.seed,
+            log_targets=tuple(p.log_targets),
+        )
 
     # ------------------------------------------------------------------------------------ fitting
     def fit(self, X: np.ndarray, Y: np.ndarray, progress=None) -> Self:
@@ -268,20 +286,21 @@ class BayesRegMLP:
         n_out = len(self.y_scale_)
         h = self.net_[-1].in_features
         p_h = cov.shape[0] - n_out * (h + 1)
-        head = torch.cat([p_h + torch.arange(n_out * h).reshape(n_out, h),
-                          (p_h + n_out * h + torch.arange(n_out))[:, None]], dim=1)  # (n_out, h + 1)
+        head = torch.cat(
+            [p_h + torch.arange(n_out * h).reshape(n_out, h), (p_h + n_out * h + torch.arange(n_out))[:, None]], dim=1
+        )  # (n_out, h + 1)
         s11 = cov[:p_h, :p_h]
         s12 = cov[:p_h][:, head].permute(1, 0, 2)  # (n_out, p_h, h + 1)
         s22 = cov[head[:, :, None], head[:, None, :]]  # (n_out, h + 1, h + 1): diagonal blocks only
         var = np.empty((x.shape[0], n_out))
         for start in range(0, x.shape[0], _STD_CHUNK):
-            xc = x[start:start + _STD_CHUNK]
+            xc = x[start : start + _STD_CHUNK]
             u, a_last = _output_jacobian(self.net_, xc, body_only=True)  # (m, n_out, p_h), (m, h)
             phi = torch.cat([a_last, a_last.new_ones((a_last.shape[0], 1))], dim=1)  # (m, h + 1)
             quad = ((u @ s11) * u).sum(dim=2)
             cross = ((u.transpose(0, 1) @ s12) * phi[None]).sum(dim=2).T
             last = torch.einsum("mi,kij,mj->mk", phi, s22, phi)
-            var[start:start + _STD_CHUNK] = (quad + 2.0 * cross + last).numpy()
+            var[start : start + _STD_CHUNK] = (quad + 2.0 * cross + last).numpy()
         var = np.clip(var, 0.0, None) + 1.0 / (2.0 * self.beta_)
         return np.sqrt(var) * self.y_scale_
 
@@ -298,17 +317,32 @@ class BayesRegMLP:
             "design_vars": list(DESIGN_VARS),
             "objectives": list(OBJECTIVES),
             "space": space_to_dict(self.space),
-            "hyper": {"hidden": list(self.hidden), "lr": float(self.lr), "max_epochs": int(self.max_epochs),
-                      "error_goal": float(self.error_goal), "evidence_every": int(self.evidence_every),
-                      "seed": int(self.seed), "log_targets": list(self.log_targets)},
-            "target_transform": {"log_targets": list(self.target_transform_.names),
-                                 "offset": torch.from_numpy(self.target_transform_.offset)},
+            "hyper": {
+                "hidden": list(self.hidden),
+                "lr": float(self.lr),
+                "max_epochs": int(self.max_epochs),
+                "error_goal": float(self.error_goal),
+                "evidence_every": int(self.evidence_every),
+                "seed": int(self.seed),
+                "log_targets": list(self.log_targets),
+            },
+            "target_transform": {
+                "log_targets": list(self.target_transform_.names),
+                "offset": torch.from_numpy(self.target_transform_.offset),
+            },
             "state_dict": self.net_.state_dict(),
-            "normaliser": {k: torch.from_numpy(getattr(self, k + "_"))
-                           for k in ("x_mean", "x_scale", "y_mean", "y_scale")},
-            "evidence": {"alpha": self.alpha_, "beta": self.beta_, "gamma": self.gamma_,
-                         "n_weights": self.n_weights_, "n_residuals": self.n_residuals_,
-                         "epochs": self.epochs_, "train_mse_std": self.train_mse_std_},
+            "normaliser": {
+                k: torch.from_numpy(getattr(self, k + "_")) for k in ("x_mean", "x_scale", "y_mean", "y_scale")
+            },
+            "evidence": {
+                "alpha": self.alpha_,
+                "beta": self.beta_,
+                "gamma": self.gamma_,
+                "n_weights": self.n_weights_,
+                "n_residuals": self.n_residuals_,
+                "epochs": self.epochs_,
+                "train_mse_std": self.train_mse_std_,
+            },
             "posterior_cov": self.cov_,
             "history": {k: torch.from_numpy(v) for k, v in self.history_.items()},
         }
@@ -326,8 +360,11 @@ class BayesRegMLP:
         except Exception as err:  # noqa: BLE001 - any unpickling problem is a bad model file
             raise ValueError(f"{path}: not a readable BNN model ({type(err).__name__})") from None
         if not isinstance(blob, dict) or blob.get("format") != FORMAT:
-            found = f" (found {blob['format']}; run `hev surrogates` again)" if isinstance(blob, dict) \
-                and "format" in blob else ""
+            found = (
+                f" (found {blob['format']}; run `hev surrogates` again)"
+                if isinstance(blob, dict) and "format" in blob
+                else ""
+            )
             raise ValueError(f"{path}: not a {FORMAT} model file{found}")
         if tuple(blob["design_vars"]) != DESIGN_VARS or tuple(blob["objectives"]) != OBJECTIVES:
             raise ValueError(f"{path}: model was trained on other design variables or objectives")
@@ -337,8 +374,9 @@ class BayesRegMLP:
         net.load_state_dict(blob["state_dict"])
         model.net_ = net.eval()
         tt = blob["target_transform"]
-        model.target_transform_ = LogTargets.from_dict({"log_targets": tt["log_targets"],
-                                                         "offset": tt["offset"].numpy()})
+        model.target_transform_ = LogTargets.from_dict(
+            {"log_targets": tt["log_targets"], "offset": tt["offset"].numpy()}
+        )
         for k, v in blob["normaliser"].items():
             setattr(model, k + "_", v.numpy())
         ev = blob["evidence"]

@@ -32,9 +32,9 @@ I_SPEED_DEV = OBJECTIVES.index("speed_dev")
 class SurrogateStudy:
     """Fitted models, the data each split holds, their predictions, and the metrics of the contract."""
 
-    models: dict            # "bnn" -> BayesRegMLP, "regression" -> LinearRegressions
-    data: dict              # split -> (X, Y)
-    predictions: dict       # model -> split -> Y_pred
+    models: dict  # "bnn" -> BayesRegMLP, "regression" -> LinearRegressions
+    data: dict  # split -> (X, Y)
+    predictions: dict  # model -> split -> Y_pred
     train_index: np.ndarray  # DOE rows in the training split
     test_index: np.ndarray
     speed_dev_max: float  # screening limit that defines heldout_followers
@@ -48,8 +48,9 @@ class SurrogateStudy:
     def metrics(self) -> dict:
         """``{model: {split: {objective: {"r2", "rmse", "mae", "spearman"}}}}`` for ``bnn`` and ``regression``,
         plus ``n_designs`` (per split) and ``heldout_followers_speed_dev_max``."""
-        out: dict = {m: {s: objective_metrics(self.data[s][1], pred[s]) for s in SPLITS}
-                     for m, pred in self.predictions.items()}
+        out: dict = {
+            m: {s: objective_metrics(self.data[s][1], pred[s]) for s in SPLITS} for m, pred in self.predictions.items()
+        }
         out["n_designs"] = self.n_designs
         out["heldout_followers_speed_dev_max"] = float(self.speed_dev_max)
         return out
@@ -60,17 +61,28 @@ def followers(Y: np.ndarray, speed_dev_max: float) -> np.ndarray:
     return np.asarray(Y, dtype=float)[:, I_SPEED_DEV] <= speed_dev_max
 
 
-def fit_surrogates(X: np.ndarray, Y: np.ndarray, X_heldout: np.ndarray, Y_heldout: np.ndarray, params,
-                   space: DesignSpace, speed_dev_max: float,
-                   progress: Callable[[int, int], None] | None = None) -> SurrogateStudy:
+def fit_surrogates(
+    X: np.ndarray,
+    Y: np.ndarray,
+    X_heldout: np.ndarray,
+    Y_heldout: np.ndarray,
+    params,
+    space: DesignSpace,
+    speed_dev_max: float,
+    progress: Callable[[int, int], None] | None = None,
+) -> SurrogateStudy:
     """Split, fit the BNN and the regressions, predict every split. ``params`` is ``SurrogateParams``;
     ``speed_dev_max`` (``screen.speed_dev_max``) picks the held-out followers."""
     from hevlib.surrogates.bnn import BayesRegMLP  # torch only here
 
     itr, ite = train_test_split(len(X), params.train_fraction, params.split_seed)
     keep = followers(Y_heldout, speed_dev_max)
-    data = {"train": (X[itr], Y[itr]), "test": (X[ite], Y[ite]), "heldout": (X_heldout, Y_heldout),
-            "heldout_followers": (X_heldout[keep], Y_heldout[keep])}
+    data = {
+        "train": (X[itr], Y[itr]),
+        "test": (X[ite], Y[ite]),
+        "heldout": (X_heldout, Y_heldout),
+        "heldout_followers": (X_heldout[keep], Y_heldout[keep]),
+    }
     models = {
         "bnn": BayesRegMLP.from_params(space, params.bnn).fit(*data["train"], progress=progress),
         "regression": LinearRegressions(space).fit(*data["train"]),
@@ -91,16 +103,19 @@ def training_curve_table(history: dict[str, np.ndarray]) -> pd.DataFrame:
 
 def metric_table(metrics: dict, split: str = "heldout", metric: str = "r2") -> pd.DataFrame:
     """One metric of every objective (rows) for every model (columns) on one split."""
-    return pd.DataFrame({m: {o: v[metric] for o, v in metrics[m][split].items()}
-                         for m in MODELS if m in metrics})
+    return pd.DataFrame({m: {o: v[metric] for o, v in metrics[m][split].items()} for m in MODELS if m in metrics})
 
 
 def summary_table(metrics: dict) -> pd.DataFrame:
     """Held-out R^2 and Spearman rho, on all held-out designs and on the followers (``fol.``), of both
     models (columns ``<model> <figure>``)."""
     cols = {}
-    for split, metric, label in (("heldout", "r2", "R2"), ("heldout_followers", "r2", "R2 fol."),
-                                 ("heldout", "spearman", "rho"), ("heldout_followers", "spearman", "rho fol.")):
+    for split, metric, label in (
+        ("heldout", "r2", "R2"),
+        ("heldout_followers", "r2", "R2 fol."),
+        ("heldout", "spearman", "rho"),
+        ("heldout_followers", "spearman", "rho fol."),
+    ):
         for m, col in metric_table(metrics, split, metric).items():
             cols[f"{m} {label}"] = col
     return pd.DataFrame(cols)

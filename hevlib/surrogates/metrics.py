@@ -55,7 +55,7 @@ def spearman(y_true: np.ndarray, y_pred: np.ndarray) -> np.ndarray:
         return np.full(y_true.shape[1], np.nan)
     rt, rp = stats.rankdata(y_true, axis=0), stats.rankdata(y_pred, axis=0)
     rt, rp = rt - rt.mean(axis=0), rp - rp.mean(axis=0)
-    den = np.sqrt((rt ** 2).sum(axis=0) * (rp ** 2).sum(axis=0))
+    den = np.sqrt((rt**2).sum(axis=0) * (rp**2).sum(axis=0))
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(den > 0, (rt * rp).sum(axis=0) / den, np.nan)
 
@@ -66,15 +66,16 @@ def objective_metrics(y_true: np.ndarray, y_pred: np.ndarray) -> dict[str, dict[
     With no rows every figure is NaN (written as JSON null)."""
     y_true, y_pred = np.asarray(y_true, dtype=float), np.asarray(y_pred, dtype=float)
     if y_true.shape != y_pred.shape or y_true.ndim != 2 or y_true.shape[1] != len(OBJECTIVES):
-        raise ValueError(f"metrics: expected two (n, {len(OBJECTIVES)}) arrays, "
-                         f"got {y_true.shape} and {y_pred.shape}")
+        raise ValueError(f"metrics: expected two (n, {len(OBJECTIVES)}) arrays, got {y_true.shape} and {y_pred.shape}")
     if len(y_true) == 0:
         nan = float("nan")
         return {obj: {"r2": nan, "rmse": nan, "mae": nan, "spearman": nan} for obj in OBJECTIVES}
     r2, e, a = r2_score(y_true, y_pred), rmse(y_true, y_pred), mae(y_true, y_pred)
     rho = spearman(y_true, y_pred)
-    return {obj: {"r2": float(r2[k]), "rmse": float(e[k]), "mae": float(a[k]), "spearman": float(rho[k])}
-            for k, obj in enumerate(OBJECTIVES)}
+    return {
+        obj: {"r2": float(r2[k]), "rmse": float(e[k]), "mae": float(a[k]), "spearman": float(rho[k])}
+        for k, obj in enumerate(OBJECTIVES)
+    }
 
 
 def load_surrogate(kind: str, models_dir: str | Path = "models"):

@@ -41,11 +41,13 @@ def ols(X: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray | float]:
     A = np.column_stack([np.ones(n), X])
     p = A.shape[1]
     if np.linalg.matrix_rank(A) < p:
-        raise ValueError(f"regression: design matrix is rank deficient ({n} designs, {p} terms); "
-                         "a design variable is constant or collinear in the training set")
+        raise ValueError(
+            f"regression: design matrix is rank deficient ({n} designs, {p} terms); "
+            "a design variable is constant or collinear in the training set"
+        )
     coef, *_ = np.linalg.lstsq(A, y, rcond=None)
     resid = y - A @ coef
-    rss = (resid ** 2).sum(axis=0)
+    rss = (resid**2).sum(axis=0)
     tss = ((y - y.mean(axis=0)) ** 2).sum(axis=0)
     df = n - p
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -58,8 +60,7 @@ def ols(X: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray | float]:
         pval = 2.0 * stats.t.sf(np.abs(t), df) if df > 0 else np.full_like(t, np.nan)
     # a perfect fit (se = 0) is infinitely significant unless the coefficient is exactly zero
     pval = np.where((se == 0) & (coef != 0), 0.0, pval)
-    return {"coef": coef, "se": se, "t": t, "p": pval, "r2": r2, "r2_adj": r2_adj, "df": df,
-            "rmse_resid": np.sqrt(s2)}
+    return {"coef": coef, "se": se, "t": t, "p": pval, "r2": r2, "r2_adj": r2_adj, "df": df, "rmse_resid": np.sqrt(s2)}
 
 
 class LinearRegressions:
@@ -74,7 +75,7 @@ class LinearRegressions:
         X = check_designs(self.space, X, what="regression training designs")
         Y = check_targets(Y, X.shape[0], what="regression training objectives")
         fit = ols(X, Y)
-        self.coef_ = fit["coef"]          # (8, 11): intercept then DESIGN_VARS
+        self.coef_ = fit["coef"]  # (8, 11): intercept then DESIGN_VARS
         self.se_, self.t_, self.p_ = fit["se"], fit["t"], fit["p"]
         self.r2_, self.r2_adj_ = fit["r2"], fit["r2_adj"]
         self.df_resid_ = int(fit["df"])
@@ -96,9 +97,16 @@ class LinearRegressions:
         """Long table: objective, term, coef, se, t, p (one row per objective and term)."""
         self._check_fitted()
         rows = [
-            {"objective": obj, "term": term, "coef": self.coef_[i, k], "se": self.se_[i, k],
-             "t": self.t_[i, k], "p": self.p_[i, k]}
-            for k, obj in enumerate(OBJECTIVES) for i, term in enumerate(TERMS)
+            {
+                "objective": obj,
+                "term": term,
+                "coef": self.coef_[i, k],
+                "se": self.se_[i, k],
+                "t": self.t_[i, k],
+                "p": self.p_[i, k],
+            }
+            for k, obj in enumerate(OBJECTIVES)
+            for i, term in enumerate(TERMS)
         ]
         return pd.DataFrame(rows)
 
@@ -108,16 +116,25 @@ class LinearRegressions:
         models = {}
         for k, obj in enumerate(OBJECTIVES):
             models[obj] = {
-                "r2": self.r2_[k], "r2_adj": self.r2_adj_[k],
-                "terms": {term: {"coef": self.coef_[i, k], "se": self.se_[i, k], "t": self.t_[i, k],
-                                 "p": self.p_[i, k]} for i, term in enumerate(TERMS)},
+                "r2": self.r2_[k],
+                "r2_adj": self.r2_adj_[k],
+                "terms": {
+                    term: {"coef": self.coef_[i, k], "se": self.se_[i, k], "t": self.t_[i, k], "p": self.p_[i, k]}
+                    for i, term in enumerate(TERMS)
+                },
             }
-        return {"format": FORMAT, "form": "y = intercept + sum_j coef_j * x_j (natural units)",
-                "design_vars": list(DESIGN_VARS), "space": space_to_dict(self.space),
-                "n_train": self.n_train_, "df_resid": self.df_resid_, "models": models}
+        return {
+            "format": FORMAT,
+            "form": "y = intercept + sum_j coef_j * x_j (natural units)",
+            "design_vars": list(DESIGN_VARS),
+            "space": space_to_dict(self.space),
+            "n_train": self.n_train_,
+            "df_resid": self.df_resid_,
+            "models": models,
+        }
 
     def save(self, path: str | Path) -> None:
-        write_json(path, self.to_dict(), digits=None)                    # a model: exact coefficients
+        write_json(path, self.to_dict(), digits=None)  # a model: exact coefficients
 
     @classmethod
     def load(cls, path: str | Path) -> LinearRegressions:
@@ -180,10 +197,19 @@ def compare_signs(model: LinearRegressions, study: pd.DataFrame, alpha: float = 
     for rec in table.itertuples(index=False):
         c_study = float(study.loc[rec.objective, rec.term]) if rec.objective in study.index else float("nan")
         s_ours, s_study = int(np.sign(rec.coef)), (int(np.sign(c_study)) if np.isfinite(c_study) else 0)
-        rows.append({"objective": rec.objective, "term": rec.term, "coef_ours": rec.coef, "p_ours": rec.p,
-                     "significant": bool(np.isfinite(rec.p) and rec.p < alpha), "coef_study": c_study,
-                     "sign_ours": s_ours, "sign_study": s_study,
-                     "agree": (s_ours == s_study) if s_study != 0 else None})
+        rows.append(
+            {
+                "objective": rec.objective,
+                "term": rec.term,
+                "coef_ours": rec.coef,
+                "p_ours": rec.p,
+                "significant": bool(np.isfinite(rec.p) and rec.p < alpha),
+                "coef_study": c_study,
+                "sign_ours": s_ours,
+                "sign_study": s_study,
+                "agree": (s_ours == s_study) if s_study != 0 else None,
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -193,16 +219,19 @@ def sign_summary(signs: pd.DataFrame) -> dict[str, dict[str, int]]:
     for obj in OBJECTIVES:
         s = signs[(signs["objective"] == obj) & signs["agree"].notna()]
         sig = s[s["significant"]]
-        out[obj] = {"compared": len(s), "agree": int(s["agree"].astype(bool).sum()),
-                    "significant": len(sig), "significant_agree": int(sig["agree"].astype(bool).sum())}
+        out[obj] = {
+            "compared": len(s),
+            "agree": int(s["agree"].astype(bool).sum()),
+            "significant": len(sig),
+            "significant_agree": int(sig["agree"].astype(bool).sum()),
+        }
     return out
 
 
 def signs_markdown(signs: pd.DataFrame) -> str:
     """The sign comparison as a Markdown table: objective rows, term columns, ``ours/study`` signs."""
     sym = {-1: "-", 0: "0", 1: "+"}
-    lines = ["| objective | " + " | ".join(DESIGN_VARS) + " | agree |",
-             "|---|" + "---|" * (len(DESIGN_VARS) + 1)]
+    lines = ["| objective | " + " | ".join(DESIGN_VARS) + " | agree |", "|---|" + "---|" * (len(DESIGN_VARS) + 1)]
     for obj in OBJECTIVES:
         s = signs[signs["objective"] == obj].set_index("term")
         cells = []
@@ -214,6 +243,8 @@ def signs_markdown(signs: pd.DataFrame) -> str:
         cmp = s["agree"].dropna()
         lines.append(f"| {obj} | " + " | ".join(cells) + f" | {int(cmp.astype(bool).sum())}/{len(cmp)} |")
     lines.append("")
-    lines.append("Cells: our sign (`*` = p < 0.05) / the study's sign; `x` marks a disagreement, "
-                 "no mark where the study's coefficient is 0.")
+    lines.append(
+        "Cells: our sign (`*` = p < 0.05) / the study's sign; `x` marks a disagreement, "
+        "no mark where the study's coefficient is 0."
+    )
     return "\n".join(lines) + "\n"

@@ -78,15 +78,19 @@ class LogTargets:
             name = OBJECTIVES[k]
             if np.any(y < 0):
                 row = int(np.argmin(y))
-                raise ValueError(f"{what}: {name} has negative values (min {y[row]:.6g} in row {row}); a log "
-                                 f"transform needs values >= 0, so remove {name} from the list")
+                raise ValueError(
+                    f"{what}: {name} has negative values (min {y[row]:.6g} in row {row}); a log "
+                    f"transform needs values >= 0, so remove {name} from the list"
+                )
             if not np.any(y > 0):
                 raise ValueError(f"{what}: {name} is zero in every training design; it cannot be log-transformed")
             if np.any(y == 0):
                 offset[k] = float(np.median(y))  # > 0 unless half the designs are zero
                 if offset[k] <= 0:
-                    raise ValueError(f"{what}: {name} is zero in at least half of the training designs; "
-                                     f"a log transform does not suit it, so remove it from the list")
+                    raise ValueError(
+                        f"{what}: {name} is zero in at least half of the training designs; "
+                        f"a log transform does not suit it, so remove it from the list"
+                    )
         return cls(names, offset)
 
     def forward(self, Y: np.ndarray) -> np.ndarray:
