@@ -226,14 +226,20 @@ def load_cycle(
     return Cycle(name, grid - grid[0], v, np.full(len(grid), float(grade)), key_on_mask(grid, key_off_intervals_s))
 
 
-def read_expected_points(raw_dir: str | Path) -> dict[str, int]:
-    """``{csv file name: number of points}`` from ``cycles.yaml`` in ``raw_dir`` (empty if absent)."""
+def _metadata_entries(raw_dir: str | Path):
+    """``(cycles.yaml path, [(key, entry), ...])`` of the cycle metadata in ``raw_dir`` (none if absent)."""
     path = Path(raw_dir) / "cycles.yaml"
     if not path.exists():
-        return {}
+        return path, []
     meta = read_yaml_mapping(path, what="cycle metadata file", error=CycleError, empty_ok=True)
+    return path, list((meta.get("cycles") or {}).items())
+
+
+def read_expected_points(raw_dir: str | Path) -> dict[str, int]:
+    """``{csv file name: number of points}`` from ``cycles.yaml`` in ``raw_dir`` (empty if absent)."""
+    path, entries = _metadata_entries(raw_dir)
     out = {}
-    for key, entry in (meta.get("cycles") or {}).items():
+    for key, entry in entries:
         points = entry.get("points") if isinstance(entry, dict) else None
         if points is None:
             continue
@@ -245,12 +251,9 @@ def read_expected_points(raw_dir: str | Path) -> dict[str, int]:
 
 def read_key_off_intervals(raw_dir: str | Path) -> dict[str, list[tuple[float, float]]]:
     """``{csv file name: [(start_s, end_s), ...]}`` from ``cycles.yaml`` in ``raw_dir`` (empty if absent)."""
-    path = Path(raw_dir) / "cycles.yaml"
-    if not path.exists():
-        return {}
-    meta = read_yaml_mapping(path, what="cycle metadata file", error=CycleError, empty_ok=True)
+    path, entries = _metadata_entries(raw_dir)
     out = {}
-    for key, entry in (meta.get("cycles") or {}).items():
+    for key, entry in entries:
         try:
             intervals = entry.get("key_off_intervals_s") or []
             out[str(entry["file"])] = [(float(a), float(b)) for a, b in intervals]

@@ -86,22 +86,27 @@ PARAMS_CASES = {
 }
 
 
-@pytest.mark.parametrize("case", list(PARAMS_CASES))
-def test_bad_params_stop_dvc_repro_before_any_output_is_touched(built, case):
-    root, env = built
+def _repro_with(root: Path, env: dict, path: Path, corrupt, message: str) -> None:
+    """Corrupt ``path``, run ``dvc repro``, restore it; the run must fail naming ``message`` (``|``-separated
+    parts) and leave every output byte-identical."""
     before = _digest(root)
-    params = root / "params.yaml"
-    good = params.read_text()
-    corrupt, message = PARAMS_CASES[case]
-    params.write_text(corrupt(good))
+    good = path.read_text()
+    path.write_text(corrupt(good))
     try:
         out = _run(["dvc", "repro"], root, env)
     finally:
-        params.write_text(good)
+        path.write_text(good)
     text = out.stdout + out.stderr
     assert out.returncode != 0, text
     assert all(m in text for m in message.split("|")), text
     assert _digest(root) == before
+
+
+@pytest.mark.parametrize("case", list(PARAMS_CASES))
+def test_bad_params_stop_dvc_repro_before_any_output_is_touched(built, case):
+    root, env = built
+    corrupt, message = PARAMS_CASES[case]
+    _repro_with(root, env, root / "params.yaml", corrupt, message)
 
 
 def test_hev_check_names_a_duplicate_key_in_one_line(built, tmp_path):
@@ -136,16 +141,5 @@ RAW_CASES = {
 @pytest.mark.parametrize("case", list(RAW_CASES))
 def test_bad_raw_files_stop_dvc_repro_before_any_output_is_touched(built, case):
     root, env = built
-    before = _digest(root)
     rel, corrupt, message = RAW_CASES[case]
-    path = root / rel
-    good = path.read_text()
-    path.write_text(corrupt(good))
-    try:
-        out = _run(["dvc", "repro"], root, env)
-    finally:
-        path.write_text(good)
-    text = out.stdout + out.stderr
-    assert out.returncode != 0, text
-    assert message in text, text
-    assert _digest(root) == before
+    _repro_with(root, env, root / rel, corrupt, message)
