@@ -122,12 +122,13 @@ def design_matrix(table: pd.DataFrame, *, what: str = "designs") -> np.ndarray:
     cols = []
     for v in DESIGN_VARS:
         raw = table[v]
-        num = pd.to_numeric(raw, errors="coerce") if raw.dtype == object or raw.dtype.kind in "OUSb" else raw
-        if raw.dtype.kind == "b" or num.isna().any():
-            i = int(np.argmax(num.isna().to_numpy() | (raw.dtype.kind == "b")))
+        num = pd.to_numeric(raw, errors="coerce")
+        bad = num.isna().to_numpy() | (raw.dtype.kind == "b")  # text, empty cells, or a flag where a number belongs
+        if bad.any():
+            i = int(np.argmax(bad))
             raise ValueError(f"{what}: {v} is not a number in row {i + 1} ({raw.iloc[i]!r})")
         cols.append(num.to_numpy(dtype=float))
-    return np.column_stack(cols) if cols and len(table) else np.empty((0, len(DESIGN_VARS)))
+    return np.column_stack(cols)
 
 
 def read_designs(path) -> np.ndarray:

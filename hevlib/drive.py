@@ -518,7 +518,6 @@ def _conventional_one(
     m = row[R_MASS]
     m_free = conventional_equivalent_mass_kg(m, 0.0, False, d.s_eng, c)  # clutch open
     m_prev = m_free
-    ch = chassis(m, m_free, c)
     dt = c.dt
     v_lim = d.w_e_max * d.r / ratios[-1]
     v = 0.0
@@ -546,7 +545,7 @@ def _conventional_one(
         # equivalent mass of the gear in use: the engine is reflected while the clutch is closed (traction
         # above the launch speed); the gear is chosen on it, and the mass re-taken once for a kick-down
         for _ in range(2):
-            engaged = f_req > 0.0 and d.w_launch <= v_req / d.r * ratios[gear] <= d.w_e_max
+            engaged = f_req > 0.0 and conv.clutch_closed(v_req, ratios[gear], d)
             m_eff = conventional_equivalent_mass_kg(m, ratios[gear], engaged, d.s_eng, c)
             ch = chassis(m, m_eff, c)
             f_try = 0.0 if stationary else m_eff * (v_tgt - v0) / dt + f_road
@@ -555,11 +554,10 @@ def _conventional_one(
                 f_try = 0.0 if stationary else m_free * (v_tgt - v0) / dt + f_road
             f_cmd = min(f_try, adhesion_limit(sn, cs, f_road, ch))
             g_best = conv.best_gear(v_req, f_cmd, g0, ratios, d, E) if f_cmd > 0.0 else g0
-            f_req_step = f_try
             if g_best == gear:
                 break
             gear = g_best
-        f_req = f_req_step
+        f_req = f_try
         if ch.m_eff != m_prev:
             # clutch closing or opening, or a shift: the engine's share of the kinetic energy jumps; the
             # clutch slip that syncs it dissipates (or, rev-matching a downshift, supplies) the difference

@@ -94,7 +94,7 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
             v_avg = 0.0
             for g in range(ratios.shape[0]):
                 st_c = conv.dispatch(v, f_cmd, ratios[g], cd, E)
-                engaged = v / cd.r * ratios[g] >= cd.w_launch  # clutch closed: the engine is reflected
+                engaged = conv.clutch_closed(v, ratios[g], cd)  # the engine is reflected
                 ch_g = chassis(m, conventional_equivalent_mass_kg(m, ratios[g], engaged, cd.s_eng, c), c)
                 v_avg = max(v_avg, _limited_conv(v, v, v_lim, f_cmd, ratios[g], 0.0, 1.0, dt, st_c, cd, ch_g, E)[2])
         v_next = min(max(2.0 * v_avg - v, 0.0), v_lim)

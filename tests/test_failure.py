@@ -12,7 +12,7 @@ import pytest
 from hevlib.cycles import build_cycles
 from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, SENSE, DesignSpace
 from hevlib.doe import l27_designs, lhs_designs
-from hevlib.drive import conventional_equivalent_mass_kg, split_equivalent_mass_kg
+from hevlib.drive import conventional_equivalent_mass_kg, split_design, split_equivalent_mass_kg
 from hevlib.io import read_yaml_mapping
 from hevlib.optimise import ALGORITHMS, HevProblem, drop_stalled, optimise, optimise_and_resimulate
 from hevlib.params import AlgoParams
@@ -75,8 +75,6 @@ def test_engine_min_speed_is_the_maps_lowest_and_lets_k_433_run_at_standstill(si
     assert ps.engine_min_on_speed_rad_s == pytest.approx(lib.engine_hybrid.speed_rad_s[0])
     assert ps.engine_min_on_speed_rad_s == pytest.approx(1000 * np.pi / 30)
     row = sim._rows(STALLS[None, :], "hybrid")[0]
-    from hevlib.drive import split_design
-
     d = split_design(row, sim._cfg["hybrid"])
     lo, hi = split.engine_window(0.0, d)
     assert lo <= hi  # 5500 rpm / (1 + 78/18) = 1031 rpm >= 1000 rpm

@@ -52,6 +52,13 @@ def gearbox_loss(w_out: float, t_out: float, ratio: float, d: ConvDesign) -> flo
 
 
 @njit(cache=True, inline="always")
+def clutch_closed(v: float, ratio: float, d: ConvDesign) -> bool:
+    """The clutch is closed (no slip, the engine turns with the wheels) in the gear of ``ratio`` at speed
+    ``v``: the engine speed it implies lies between the launch speed and the engine's top speed."""
+    return d.w_launch <= v / d.r * ratio <= d.w_e_max
+
+
+@njit(cache=True, inline="always")
 def idle_state(d: ConvDesign) -> ConvState:
     return ConvState(0.0, False, d.w_idle, d.p_acc_w / d.w_idle, 0.0, 0.0, 0.0, 0.0)
 
