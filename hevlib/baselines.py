@@ -7,7 +7,7 @@ or the cycle's own name for flat ones (``ftp``, ``hwfet``, ``us06``, ``nedc``).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -32,11 +32,18 @@ def baseline_runs(cycles: Mapping[str, Cycle]) -> dict[str, Cycle]:
     return runs
 
 
-def simulate_baselines(sim: Simulator, cycles: Mapping[str, Cycle]) -> tuple[dict, pd.DataFrame]:
-    """(report dict for baselines.json, energy-balance table with one row per vehicle and run)."""
+def simulate_baselines(
+    sim: Simulator, cycles: Mapping[str, Cycle], progress: Callable[[int, int], None] | None = None
+) -> tuple[dict, pd.DataFrame]:
+    """(report dict for baselines.json, energy-balance table with one row per vehicle and run).
+
+    ``progress(n_done, n_total)`` is called after each vehicle-run.
+    """
     report: dict[str, dict] = {v: {} for v in BASELINE_VEHICLES}
     balance = []
-    for run, cyc in baseline_runs(cycles).items():
+    runs = baseline_runs(cycles)
+    n_total = len(runs) * len(BASELINE_VEHICLES)
+    for run, cyc in runs.items():
         for vehicle in BASELINE_VEHICLES:
             raw = sim.run_raw(None, cyc, vehicle)
             resp = sim.responses(raw, cyc).iloc[0]
@@ -50,4 +57,6 @@ def simulate_baselines(sim: Simulator, cycles: Mapping[str, Cycle]) -> tuple[dic
                     "limit_violations": float(raw.frame()["limit_violations"].iloc[0]),
                 }
             )
+            if progress is not None:
+                progress(len(balance), n_total)
     return report, pd.DataFrame(balance)

@@ -485,6 +485,20 @@ class Simulator:
         return r
 
 
+def warm_up(params: Params, paper_dir: str | Path = "data/raw/paper") -> None:
+    """Compile (and cache on disk) every numba kernel the stages call, on a two-step cycle.
+
+    numba caches each kernel per argument types; the stages always pass the same types (float64
+    C-contiguous arrays), so one small run per vehicle kind fills the cache the pipeline reads.
+    """
+    from hevlib.scaling import study_library
+
+    sim = Simulator(study_library(params.baseline, paper_dir), params)
+    cycle = Cycle("warm-up", np.arange(3.0), np.array([0.0, 1.0, 0.0]), np.zeros(3))
+    for vehicle in ("prius", "conventional"):  # the hybrid kernel (any design) and the conventional one
+        sim.run_raw(None, cycle, vehicle)
+
+
 def energy_balance(res: RunOutput) -> pd.DataFrame:
     """Sources, sinks and the residual of the energy balance per design.
 

@@ -289,6 +289,24 @@ def summarise(table: pd.DataFrame, algos: Sequence[str], cycles: Sequence[str], 
     }
 
 
+def headline(summary: dict) -> dict:
+    """``reports/headline.json``, the pipeline's declared DVC metric: the answer in five figures that fit
+    one terminal line in ``dvc metrics show`` and ``dvc exp show``.
+
+    Mean of the picked designs on the first validation cycle (FTP): fuel saved against the conventional
+    car and against the stock Prius, mass saved against the conventional car (percent, positive =
+    better), mean engine power, number of picks. The full tables stay in ``reports/validation.json``.
+    """
+    imp = summary["improvement"][ALL]
+    return {
+        "fc_saving_pct": imp["vs_conventional"]["fc"],
+        "fc_saving_vs_prius_pct": imp["vs_prius"]["fc"],
+        "mass_saving_pct": imp["vs_conventional"]["m_veh"],
+        "p_eng_kw": summary["mean_p_eng_kw"][ALL],
+        "n_picks": summary["counts"]["picked"],
+    }
+
+
 __all__ = [
     "IMPROVEMENT_RESPONSES",
     "MAXIMISED",
@@ -309,5 +327,6 @@ __all__ = [
     "split_cycle",
     "best_design",
     "summarise",
+    "headline",
     "traces",
 ]

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import typer
+
 from hevlib.baselines import simulate_baselines
 from hevlib.io import write_json, write_table
 from hevlib.plots.traces import plot_hybrid_trace
 from hevlib.scaling import scale_engine
 from stages.cli import app
-from stages.common import PARAMS_OPTION, cycle_named, params_from, simulator, stage
+from stages.common import PARAMS_OPTION, cycle_named, params_from, progress_callback, simulator, stage
 
 REPORT = Path("reports/baselines.json")
 BALANCE = Path("reports/baselines_energy.csv")
@@ -24,7 +26,8 @@ def baselines(params: str = PARAMS_OPTION) -> None:
     p = params_from(params)
     sim = simulator(p)
     cycles = {name: cycle_named(name) for name in p.cycles.cycles}
-    report, balance = simulate_baselines(sim, cycles)
+    with progress_callback(f"baselines: 2 vehicles on {len(cycles)} cycles") as cb:
+        report, balance = simulate_baselines(sim, cycles, progress=cb)
     validation = cycles[p.cycles.validation]
     trace = sim.trace(None, validation, "prius")
     write_json(REPORT, report)
@@ -36,3 +39,4 @@ def baselines(params: str = PARAMS_OPTION) -> None:
         TRACE_PLOT,
         title=f"stock Prius on {validation.name.upper()}",
     )
+    typer.echo(f"baselines: {len(balance)} vehicle-runs on {', '.join(cycles)} -> {REPORT}")

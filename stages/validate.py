@@ -13,6 +13,7 @@ from hevlib.plots.validation import improvement_figure, traces_figure
 from hevlib.report import build_summary
 from hevlib.validation import (
     cycle_notes,
+    headline,
     load_cycles,
     prius_design,
     summarise,
@@ -27,6 +28,7 @@ SELECTED = Path("data/pareto/selected.parquet")
 PARETO_JSON = Path("reports/pareto.json")
 TABLE = Path("reports/validation.parquet")
 METRICS = Path("reports/validation.json")
+HEADLINE = Path("reports/headline.json")
 SUMMARY = Path("reports/summary.md")
 PLOTS_DIR = Path("reports/plots/validation")
 
@@ -77,6 +79,7 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
 
     write_parquet(TABLE, table, validation_schema())
     write_json(METRICS, summary)
+    write_json(HEADLINE, headline(summary))
     for name, fig in figures.items():
         save_figure(fig, PLOTS_DIR / name)
     write_text(SUMMARY, text)

@@ -1,5 +1,6 @@
 """A fresh clone reproduces the committed results: the README's default pipeline (`dvc repro`) leaves the
-tree clean — every report, `dvc.lock` included, byte-identical to the commit.
+tree clean — every report, `dvc.lock` included, byte-identical to the commit; `dvc metrics show` fits a
+terminal; and the README's way back from an experiment restores the commit's reports and pictures.
 
 This needs a committed tree whose `dvc.lock` matches its code (as CI has); on a working copy with
 uncommitted changes it is skipped. The fast profile against `ci/fast_baseline` is CI's metric gate
@@ -7,6 +8,7 @@ uncommitted changes it is skipped. The fast profile against `ci/fast_baseline` i
 
 from __future__ import annotations
 
+import hashlib
 import os
 import subprocess
 import sys
@@ -37,3 +39,29 @@ def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     status = _git("status", "--porcelain", cwd=clone)
     assert status == "", status
+    shown = subprocess.run(["dvc", "metrics", "show"], cwd=clone, env=env, capture_output=True, text=True)
+    lines = shown.stdout.splitlines()
+    assert shown.returncode == 0 and len(lines) == 2, shown.stdout + shown.stderr  # header + headline.json
+    assert max(map(len, lines)) <= 120, shown.stdout  # fits a terminal
+
+    # the README's way back from an experiment: git restores params, dvc.lock and reports; DVC the pictures
+    plots = _digests(clone / "reports/plots")
+    env.update({f"GIT_{who}_{what}": val for who in ("AUTHOR", "COMMITTER") for what, val in IDENTITY.items()})
+    exp = subprocess.run(
+        ["dvc", "exp", "run", "-S", "screen.n_pick=3"], cwd=clone, env=env, capture_output=True, text=True
+    )
+    assert exp.returncode == 0, exp.stdout[-3000:] + exp.stderr[-3000:]
+    assert _git("status", "--porcelain", cwd=clone) != "" and _digests(clone / "reports/plots") != plots
+    subprocess.run(["git", "checkout", "--", "."], cwd=clone, check=True)
+    subprocess.run(["dvc", "checkout"], cwd=clone, env=env, check=True, capture_output=True)
+    assert _git("status", "--porcelain", cwd=clone) == ""
+    assert _digests(clone / "reports/plots") == plots
+
+
+IDENTITY = {"NAME": "hev-sizing test", "EMAIL": "test@hev-sizing.invalid"}
+
+
+def _digests(folder: Path) -> dict[str, str]:
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.rglob("*.png"))
+    }

@@ -242,6 +242,14 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
     assert len(table) == 2 * (len(res.selected) + 2)
     metrics = json.loads(Path("reports/validation.json").read_text())
     assert metrics["improvement"]["all"]["vs_conventional"]["diff_soc"] is None
+    head = json.loads(Path("reports/headline.json").read_text())  # the declared DVC metric: the answer only
+    assert head == {
+        "fc_saving_pct": metrics["improvement"]["all"]["vs_conventional"]["fc"],
+        "fc_saving_vs_prius_pct": metrics["improvement"]["all"]["vs_prius"]["fc"],
+        "mass_saving_pct": metrics["improvement"]["all"]["vs_conventional"]["m_veh"],
+        "p_eng_kw": metrics["mean_p_eng_kw"]["all"],
+        "n_picks": len(res.selected),
+    }
     summary = Path("reports/summary.md").read_text()
     for png in ("improvement_ftp.png", "improvement_hwfet.png", "traces_ftp.png"):
         assert Path(f"reports/plots/validation/{png}").stat().st_size > 0
