@@ -267,6 +267,14 @@ def finite_objectives(df: pd.DataFrame) -> np.ndarray:
     return np.all(np.isfinite(df[list(OBJECTIVES)].to_numpy(dtype=float)), axis=1)
 
 
+def training_data(df: pd.DataFrame, *, what: str = "designs") -> tuple[np.ndarray, np.ndarray]:
+    """(X (n, 7), Y (n, 11)) of the rows a surrogate can learn from (every objective finite)."""
+    from hevlib.design import design_matrix
+
+    df = df[finite_objectives(df)]
+    return design_matrix(df, what=what), df[list(OBJECTIVES)].to_numpy(dtype=float)
+
+
 # ----------------------------------------------------------------------------------------- report
 def doe_summary(df: pd.DataFrame, metadata: dict[str, str]) -> dict:
     """The ``reports/doe.json`` content: counts, per-column ranges, designs that missed the cycle."""

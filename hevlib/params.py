@@ -199,13 +199,19 @@ class DoeParams(_Strict):
 
 # -------------------------------------------------------------------------------------- surrogates
 class BnnParams(_Strict):
-    """Bayesian-regularised MLP (SPEC 7; study: lr 0.01, error goal 1e-10, up to 3500 epochs)."""
+    """Bayesian-regularised MLP (SPEC 7), trained as the study's MATLAB ``trainbr``: Levenberg-Marquardt with
+    MacKay's evidence re-estimation of alpha, beta after every accepted step (hevlib/surrogates/lm.py)."""
 
-    hidden: Annotated[list[Annotated[int, Field(ge=1, le=512)]], Field(min_length=1, max_length=8)] = [20]
-    lr: Pos = 0.01  # Adam learning rate
-    max_epochs: Annotated[int, Field(ge=1, le=100_000)] = 3500
-    error_goal: NonNeg = 1e-10  # stop when the standardised train MSE is below
-    evidence_every: Annotated[int, Field(ge=1, le=100_000)] = 10  # epochs between alpha/beta re-estimations
+    networks: Literal["per_objective", "shared"] = "per_objective"  # 11 nets 7-h-1, or one net 7-h-11
+    hidden: Annotated[int, Field(ge=1, le=256)] = 8  # tanh hidden units (fewer where n_w would exceed N/2)
+    mu: Annotated[float, Field(gt=0, le=1e10)] = 0.005  # initial LM damping (trainbr: 0.005)
+    mu_dec: Annotated[float, Field(gt=0, lt=1)] = 0.1  # mu *= mu_dec after a step that lowers F
+    mu_inc: Annotated[float, Field(gt=1, le=1000)] = 10.0  # mu *= mu_inc after a step that does not
+    mu_max: Annotated[float, Field(gt=0, le=1e20)] = 1e10  # a network stops when mu exceeds it
+    max_epochs: Annotated[int, Field(ge=1, le=100_000)] = 1000
+    window: Annotated[int, Field(ge=1, le=10_000)] = 10  # epochs over which gamma and E_D must be stable
+    gamma_tol: Annotated[float, Field(gt=0, lt=1)] = 0.01  # relative spread of gamma and E_D over the window
+    restarts: Annotated[int, Field(ge=1, le=100)] = 2  # seeded starts per network; highest evidence kept
     seed: Seed = 0  # weight initialisation
     # objectives fitted as log(y + c) (heavy-tailed per-km figures); see hevlib/surrogates/transform.py
     log_targets: list[str] = ["fc", "hc", "co", "nox"]
@@ -217,6 +223,12 @@ class BnnParams(_Strict):
         objective_indices(self.log_targets, what="log_targets")
         return self
 
+    @model_validator(mode="after")
+    def _mu_below_max(self):
+        if self.mu >= self.mu_max:
+            raise ValueError(f"mu: initial damping {self.mu:g} must be below mu_max = {self.mu_max:g}")
+        return self
+
 
 class HeldoutParams(_Strict):
     """Fresh seeded LHS designs simulated only to judge the surrogates (never trained on)."""
@@ -226,7 +238,10 @@ class HeldoutParams(_Strict):
 
 
 class SurrogateParams(_Strict):
-    train_fraction: Annotated[float, Field(gt=0, lt=1)] = 0.7  # DOE share both surrogates are fitted on
+    """Both surrogates: the split that judges them (fitted on ``train_fraction`` of the DOE, scored on the rest);
+    the models saved for the optimisers are refitted on every DOE design; ``heldout`` is never fitted on."""
+
+    train_fraction: Annotated[float, Field(gt=0, lt=1)] = 0.7  # DOE share the judged models are fitted on
     split_seed: Seed = 0  # seed of the train/test split
     bnn: BnnParams = BnnParams()
     heldout: HeldoutParams = HeldoutParams()
@@ -247,19 +262,52 @@ class AlgoParams(_Strict):
         2,
         1,
     ]  # nsga3: Das-Dennis layers
-    n_neighbors: Annotated[int, Field(ge=2, le=1000)] = 20  # moead
-    decomposition: Literal["tchebicheff", "pbi"] = "pbi"  # moead
-    penalty: NonNeg = 1000.0  # moead: per unit relative mass excess
+    n_neighbors: Annotated[int, Field(ge=2, le=1000)] = 20  # moead: neighbourhood size T
+    delta: Frac = 0.9  # moead: probability of mating and replacing within the neighbourhood
+    n_replace: Annotated[int, Field(ge=1, le=1000)] = 2  # moead: most slots one offspring may take
+    decomposition: Literal["tchebycheff", "pbi"] = "tchebycheff"  # moead
     n_weights: Annotated[int, Field(ge=1, le=10_000)] = 50  # moga: weight vectors (one GA each)
-    norm_samples: Annotated[int, Field(ge=2, le=1_000_000)] = 2000  # moead, moga: designs for ideal/nadir
+    norm_samples: Annotated[int, Field(ge=2, le=1_000_000)] = 2000  # moga: designs for ideal/nadir
+
+
+class OracleParams(AlgoParams):
+    """The oracle: ``algorithm`` with the simulator in the loop (no surrogate), same problem and repair."""
+
+    algorithm: Literal["nsga3", "moead", "moga"] = "nsga3"
+
+
+class InfillParams(_Strict):
+    """Model management of every surrogate-assisted optimiser (hevlib/optimise/infill.py).
+
+    Round 0 is the study's one-shot protocol (surrogate fitted on the DOE, full ``n_gen`` search, front
+    re-simulated); each further round adds the simulated candidates to the training data, refits the
+    surrogate and resumes the search from the last population for ``n_gen`` generations.
+    """
+
+    rounds: Annotated[int, Field(ge=0, le=100)] = 4  # infill rounds after round 0
+    designs_per_round: Annotated[int, Field(ge=1, le=100_000)] = 200  # candidates simulated per round
+    n_gen: Annotated[int, Field(ge=1, le=100_000)] = 100  # generations of each resumed search
+    criterion: Literal["diverse", "uncertainty"] = "uncertainty"  # see hevlib.optimise.infill.select_candidates
 
 
 class OptimiseParams(_Strict):
     hv_samples: Annotated[int, Field(ge=100, le=10_000_000)] = 200_000
     hv_seed: Seed = 7
-    hv_reference: Annotated[float, Field(gt=0, le=10)] = 1.1  # reference point, DOE-normalised units
+    hv_reference: Annotated[float, Field(gt=0, le=10)] = 1.1  # reference point, normalised units
     apply_screen_rules: bool = True  # the screen's rules (switched on there) as optimiser constraints
     algorithms: dict[Literal["nsga3", "moead", "moga"], AlgoParams]
+    oracle: OracleParams = OracleParams()
+    infill: InfillParams = InfillParams()
+    sources: list[Literal["nsga3", "moead", "moga", "oracle"]] = ["nsga3", "moead", "moga", "oracle"]
+
+    @model_validator(mode="after")
+    def _sources_configured(self):
+        for name in self.sources:
+            if name != "oracle" and name not in self.algorithms:
+                raise ValueError(f"sources: {name} is not in optimise.algorithms")
+        if len(set(self.sources)) != len(self.sources) or not self.sources:
+            raise ValueError("sources: must name at least one source, each once")
+        return self
 
 
 # ------------------------------------------------------------------------------------------ screen

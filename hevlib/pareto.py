@@ -31,7 +31,8 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from hevlib.design import DESIGN_VARS, OBJECTIVES, SENSE, gear_set_buildable
+from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, SENSE, gear_set_buildable
+from hevlib.indicators import Normalisation, hypervolume_mc
 
 SIM, PRED = "sim_", "pred_"
 #: Decimals the design variables are rounded to when looking for identical designs.
@@ -223,6 +224,101 @@ def apply_screening(
             "remaining_after": int(alive.sum()),
         }
     return alive, masks, report
+
+
+def passes_screen(table: pd.DataFrame, screen) -> np.ndarray:
+    """(n,) bool: rows (``sim_`` objectives and the design variables) that pass every enabled rule of
+    ``params.screen``."""
+    return apply_screening(table, screening_rules(screen))[0]
+
+
+def simulated_as_front(table: pd.DataFrame) -> pd.DataFrame:
+    """A table of simulated designs (DOE, held-out: unprefixed responses) with the ``sim_`` names a front uses."""
+    return table.rename(columns={k: f"{SIM}{k}" for k in RESPONSES if k in table.columns})
+
+
+def screened_normalisation(tables: Sequence[pd.DataFrame], screen) -> Normalisation:
+    """The hypervolume's normalisation: ideal and nadir (minimisation form) of the simulated designs of
+    ``tables`` (``sim_`` columns) that pass the screen, so every objective spans the range of designs a
+    user could pick (not of designs that barely move, which would squeeze fuel and emissions into a
+    sliver near 0). Raises if no design passes."""
+    F = []
+    for t in tables:
+        ok = passes_screen(t, screen) & np.all(np.isfinite(objective_matrix(t, OBJECTIVES, what="table")), axis=1)
+        F.append(objective_matrix(t[ok], OBJECTIVES, what="table"))
+    F = np.vstack(F) if F else np.zeros((0, len(OBJECTIVES)))
+    if len(F) == 0:
+        raise ValueError("hypervolume normalisation: no simulated design passes the screen")
+    return Normalisation.from_points(F)
+
+
+def screened_hypervolume(
+    table: pd.DataFrame, screen, norm: Normalisation, reference: float, n_samples: int, seed: int
+) -> tuple[float, float, int]:
+    """(hypervolume, its standard error, designs counted) of the screen-passing rows of a front (``sim_``
+    objectives; every row with finite objectives when ``screen`` is None) on ``norm``: the one
+    hypervolume every report uses."""
+    if len(table) == 0:
+        return 0.0, 0.0, 0
+    F = objective_matrix(table, OBJECTIVES, what="front")
+    ok = np.all(np.isfinite(F), axis=1)
+    if screen is not None:
+        ok &= passes_screen(table, screen)
+    hv, se = hypervolume_mc(norm(F[ok]), reference, n_samples=n_samples, seed=seed) if ok.any() else (0.0, 0.0)
+    return hv, se, int(ok.sum())
+
+
+def spread(table: pd.DataFrame, norm: Normalisation) -> dict[str, float]:
+    """Per objective, the range of a front's simulated values in normalised units (0 = collapsed)."""
+    F = norm(objective_matrix(table, OBJECTIVES, what="front")) if len(table) else np.zeros((0, len(OBJECTIVES)))
+    F = F[np.all(np.isfinite(F), axis=1)]
+    return {k: (float(np.ptp(F[:, j])) if len(F) else 0.0) for j, k in enumerate(OBJECTIVES)}
+
+
+def normalisation_dict(norm: Normalisation) -> dict:
+    """``{ideal: {objective: value}, nadir: {...}}`` in each objective's own units (natural sense: for
+    ``v_max``, ``f_max`` the ideal is the largest)."""
+    ideal, nadir = to_minimisation(norm.ideal), to_minimisation(norm.nadir)
+    return {
+        "ideal": {k: float(v) for k, v in zip(OBJECTIVES, ideal, strict=True)},
+        "nadir": {k: float(v) for k, v in zip(OBJECTIVES, nadir, strict=True)},
+    }
+
+
+def normalisation_from_dict(data: dict) -> Normalisation:
+    """The inverse of :func:`normalisation_dict`."""
+    ideal = to_minimisation(np.array([data["ideal"][k] for k in OBJECTIVES], dtype=float))
+    nadir = to_minimisation(np.array([data["nadir"][k] for k in OBJECTIVES], dtype=float))
+    return Normalisation(ideal, nadir)
+
+
+def source_summary(
+    fronts: Mapping[str, pd.DataFrame], reports: Mapping[str, dict], merged: pd.DataFrame, screen, optimise
+) -> dict:
+    """``reports/pareto.json`` additions: the hypervolume normalisation (ideal and nadir of the
+    screen-passing designs of every source's final front: fixed for this run), its reference point and,
+    per source, its hypervolume, ratio to the oracle's, simulations used, spread and share of the picks."""
+    norm = screened_normalisation(list(fronts.values()), screen)
+    ref, n, seed = optimise.hv_reference, optimise.hv_samples, optimise.hv_seed
+    hv = {a: screened_hypervolume(t, screen, norm, ref, n, seed) for a, t in fronts.items()}
+    oracle_hv = hv["oracle"][0] if "oracle" in hv else None
+    picked = merged.loc[merged["picked"], "algo"] if "picked" in merged else pd.Series(dtype=str)
+    n_picked = max(len(picked), 1)
+    sources = {}
+    for a, t in fronts.items():
+        n_a = int(sum(a in algo_names(g) for g in picked))
+        sources[a] = {
+            "hypervolume": hv[a][0],
+            "hypervolume_se": hv[a][1],
+            "hypervolume_designs": hv[a][2],
+            "hv_ratio_to_oracle": hv[a][0] / oracle_hv if oracle_hv else None,
+            "n_simulations": reports[a].get("n_simulations"),
+            "front_size": int(len(t)),
+            "picked": n_a,
+            "picked_share": n_a / n_picked,
+            "spread": spread(t, norm),
+        }
+    return {"hv_reference": ref, "normalisation": normalisation_dict(norm), "sources": sources}
 
 
 # ------------------------------------------------------------------------------ rank and pick

@@ -115,6 +115,33 @@ def _pareto_section(pareto: Mapping) -> list[str]:
         if algos
         else "",
     ]
+    sources = pareto.get("sources", {})
+    if sources:
+        out += [
+            "",
+            "Sources: hypervolume of each final front's screen-passing designs (simulated objectives, "
+            f"normalised by their ideal and nadir over all sources, reference {pareto['hv_reference']:g}), "
+            "against the oracle's (the optimiser with the simulator in the loop), with every simulation each "
+            "source used (the DOE included for the surrogate-assisted ones):",
+            "",
+            markdown_table(
+                ["source", "simulations", "hypervolume", "ratio to oracle", "front", "picked", "share of picks"],
+                [
+                    [
+                        a,
+                        v["n_simulations"],
+                        v["hypervolume"],
+                        v["hv_ratio_to_oracle"],
+                        v["front_size"],
+                        v["picked"],
+                        round(v["picked_share"], 3),
+                    ]
+                    for a, v in sources.items()
+                ],
+            ),
+            "",
+            "![Hypervolume ratio to the oracle against simulations, per infill round](plots/pareto/infill.png)",
+        ]
     sel = pareto["selection"]
     out += [
         "",

@@ -1,14 +1,15 @@
-"""``hev optimise ALGO``: one many-objective optimiser on its surrogate, the front re-simulated (SPEC 8)."""
+"""``hev optimise SOURCE``: one source of designs on the sizing problem (SPEC 8): a surrogate-assisted
+optimiser with infill (``nsga3``, ``moead``, ``moga``) or the oracle (the simulator in the loop)."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pandas as pd
 import typer
 
 from hevlib.io import read_table, write_json, write_parquet
-from hevlib.optimise import ALGORITHMS, HevProblem, HvSettings, doe_normalisation, optimise_and_resimulate
 from hevlib.plots import save_figure
 from hevlib.plots.fronts import front_figure
 from stages.cli import app
@@ -16,75 +17,115 @@ from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_
 from stages.doe import DOE
 from stages.surrogates import HELDOUT
 
-MODELS_DIR = Path("models")
 FRONTS_DIR = Path("data/pareto")
 REPORTS_DIR = Path("reports")
+ORACLE_REPORT = REPORTS_DIR / "optimise_oracle.json"
 LOGS_DIR = Path("logs")  # wall times and other machine-dependent figures (git-ignored, not metrics)
+
+
+def _problem_factory(cfg, sim):
+    """``make_problem(model, stalled=None)``: the one sizing problem every source solves."""
+    from hevlib.optimise import HevProblem
+
+    space = cfg.design_space.space()
+    rules = cfg.screen if cfg.optimise.apply_screen_rules else None
+
+    def make_problem(model, stalled=None):
+        return HevProblem(
+            model,
+            space,
+            sim.mass_kg,
+            cfg.baseline.conventional.test_mass_kg,
+            speed_dev_max=rules.speed_dev_max if rules else None,
+            gen_below_motor=bool(rules and rules.gen_below_motor),
+            buildable_gear_set=bool(rules and rules.buildable_gear_set),
+            stalled=stalled,
+        )
+
+    return make_problem
 
 
 @app.command("optimise")
 @stage
 def optimise_stage(
-    algo: str = typer.Argument(..., help=f"one of {', '.join(ALGORITHMS)}"), params: str = PARAMS_OPTION
+    source: str = typer.Argument(..., help="nsga3, moead, moga (surrogate-assisted) or oracle"),
+    params: str = PARAMS_OPTION,
 ) -> None:
-    """Optimise on the surrogate of params.optimise.algorithms.ALGO, re-simulate the front on the sizing
-    cycle; write data/pareto/ALGO.parquet, reports/optimise_ALGO.json and reports/plots/optimise_ALGO.png."""
-    from hevlib.surrogates import load_surrogate
+    """Run SOURCE on the sizing cycle; write data/pareto/SOURCE.parquet (every round's re-simulated
+    candidates, column ``round``), reports/optimise_SOURCE.json and reports/plots/optimise_SOURCE.png."""
+    from hevlib.doe import training_data
+    from hevlib.optimise import HvSettings, normalisation_from_dict, oracle, surrogate_assisted
+    from hevlib.pareto import screened_normalisation, simulated_as_front
 
     cfg = params_from(params)
-    if cfg.optimise is None:
-        raise ValueError("params.yaml: optimise: group missing")
-    if algo not in cfg.optimise.algorithms:
-        raise ValueError(
-            f"params.yaml: optimise.algorithms.{algo}: not configured "
-            f"(configured: {', '.join(cfg.optimise.algorithms) or 'none'})"
-        )
-    settings = cfg.optimise.algorithms[algo]
     o = cfg.optimise
-    # common normalisation of all three algorithms: the range of every simulated design so far (DOE and
-    # the held-out Latin hypercube, which spans the whole design space)
-    simulated = pd.concat([read_table(DOE), read_table(HELDOUT)], ignore_index=True)
-    hv = HvSettings(doe_normalisation(simulated, what=f"{DOE} + {HELDOUT}"), o.hv_reference, o.hv_samples, o.hv_seed)
-    surrogate = load_surrogate(settings.surrogate, models_dir=MODELS_DIR)
-    sim, cycle = sizing_setup(cfg)
-    space = cfg.design_space.space()
-    rules = cfg.screen if o.apply_screen_rules else None
-    problem = HevProblem(
-        surrogate,
-        space,
-        sim.mass_kg,
-        cfg.baseline.conventional.test_mass_kg,
-        speed_dev_max=rules.speed_dev_max if rules else None,
-        gen_below_motor=bool(rules and rules.gen_below_motor),
-        buildable_gear_set=bool(rules and rules.buildable_gear_set),
-    )
-    with progress_callback(f"optimise {algo}: {settings.n_gen} generations of {settings.pop_size}") as cb:
-        result = optimise_and_resimulate(
-            problem,
-            algo,
-            settings,
-            lambda X: sim.run(X, cycle, vehicle="hybrid", batch_size=cfg.doe.batch_size),
-            hv,
-            progress=cb,
+    if o is None:
+        raise ValueError("params.yaml: optimise: group missing")
+    if source != "oracle" and source not in o.algorithms:
+        raise ValueError(
+            f"params.yaml: optimise.algorithms.{source}: not configured "
+            f"(configured: {', '.join(o.algorithms) or 'none'}; or use oracle)"
         )
-    fig = front_figure(
-        result.table, hv.norm, title=f"{algo} on {settings.surrogate}: front re-simulated on {cycle.name}"
-    )
+    sim, cycle = sizing_setup(cfg)
+    make_problem = _problem_factory(cfg, sim)
 
+    def simulate(X):
+        return sim.run(X, cycle, vehicle="hybrid", batch_size=cfg.doe.batch_size)
+
+    doe_df = read_table(DOE)
+
+    def hv_settings(norm):
+        return HvSettings(norm, o.hv_reference, o.hv_samples, o.hv_seed, screen=cfg.screen)
+
+    if source == "oracle":
+        settings = o.oracle
+        simulated = [simulated_as_front(doe_df), simulated_as_front(read_table(HELDOUT))]
+
+        def hv_for(table: pd.DataFrame):
+            # the one normalisation: screen-passing designs of the DOE, the held-out set and the oracle's front
+            return hv_settings(screened_normalisation([*simulated, table], cfg.screen))
+
+        with progress_callback(f"oracle ({settings.algorithm}): {settings.n_gen} generations") as cb:
+            result = oracle(make_problem, settings, simulate, hv_for, progress=cb)
+        surrogate = "simulator"
+    else:
+        from hevlib.surrogates import fit_surrogate
+
+        settings = o.algorithms[source]
+        if not ORACLE_REPORT.exists():
+            raise FileNotFoundError(f"{ORACLE_REPORT}: no such file; run `hev optimise oracle` first")
+        ref = json.loads(ORACLE_REPORT.read_text())
+        hv = hv_settings(normalisation_from_dict(ref["hypervolume_settings"]["normalisation"]))
+        X, Y = training_data(doe_df, what=str(DOE))
+        space = cfg.design_space.space()
+
+        def fit(X_train, Y_train):
+            return fit_surrogate(settings.surrogate, X_train, Y_train, cfg.surrogate, space)
+
+        label = f"{source}: {o.infill.rounds + 1} rounds"
+        with progress_callback(label) as cb:
+            result = surrogate_assisted(
+                source, settings, o.infill, make_problem, fit, X, Y, simulate, hv, ref["hypervolume"], progress=cb
+            )
+        surrogate = settings.surrogate
+
+    last = result.table[result.table["round"] == result.table["round"].max()]
+    norm = normalisation_from_dict(result.report["hypervolume_settings"]["normalisation"])
+    fig = front_figure(last, norm, title=f"{source} ({surrogate}): last round's front on {cycle.name}")
     write_parquet(
-        FRONTS_DIR / f"{algo}.parquet",
+        FRONTS_DIR / f"{source}.parquet",
         result.table,
         result.schema,
-        metadata={"algo": algo, "surrogate": settings.surrogate, "cycle": cycle.name},
+        metadata={"source": source, "surrogate": surrogate, "cycle": cycle.name},
     )
-    write_json(REPORTS_DIR / f"optimise_{algo}.json", result.report)
-    write_json(LOGS_DIR / f"optimise_{algo}.json", result.runtimes)  # wall times: not a metric, not in git
-    save_figure(fig, REPORTS_DIR / "plots" / f"optimise_{algo}.png")
-    r, t = result.report, result.runtimes
+    write_json(REPORTS_DIR / f"optimise_{source}.json", result.report)
+    write_json(LOGS_DIR / f"optimise_{source}.json", result.runtimes)  # wall times: not a metric, not in git
+    save_figure(fig, REPORTS_DIR / "plots" / f"optimise_{source}.png")
+    r = result.report
+    ratio = r.get("hv_ratio_to_oracle")
     typer.echo(
-        f"optimise {algo}: {r['front_size']} designs in {t['runtime_s']:.1f} s "
-        f"({r['n_evaluations']} evaluations) + {t['runtime_resim_s']:.1f} s re-simulation; "
-        f"HV {r['hypervolume']:.4g} +- {r['hypervolume_se']:.2g}, "
-        f"{100 * (r['share_nondominated_after_resim'] or 0):.0f} % still non-dominated "
-        f"-> {FRONTS_DIR / (algo + '.parquet')}"
+        f"optimise {source}: {r['front_size']} designs, {r['n_simulations']} simulations in "
+        f"{result.runtimes['runtime_total_s']:.0f} s; HV {r['hypervolume']:.4g} +- {r['hypervolume_se']:.2g}"
+        + (f" ({100 * ratio:.0f} % of the oracle's)" if ratio is not None else "")
+        + f" -> {FRONTS_DIR / (source + '.parquet')}"
     )

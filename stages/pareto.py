@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from hevlib.io import read_table, write_json, write_parquet, write_text
-from hevlib.pareto import select_designs, table_schema
+from hevlib.pareto import select_designs, source_summary, table_schema
 from hevlib.plots import save_figure
-from hevlib.plots.pareto import distributions_figure, tradeoff_data, tradeoffs_figure
+from hevlib.plots.pareto import distributions_figure, infill_figure, tradeoff_data, tradeoffs_figure
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, stage
 
@@ -16,6 +17,7 @@ MERGED = FRONTS_DIR / "merged.parquet"
 SELECTED = FRONTS_DIR / "selected.parquet"
 METRICS = Path("reports/pareto.json")
 PLOTS_DIR = Path("reports/plots/pareto")
+REPORTS_DIR = Path("reports")
 PLOT_DATA_DIR = Path("reports/pareto_tradeoffs")
 
 
@@ -24,13 +26,22 @@ PLOT_DATA_DIR = Path("reports/pareto_tradeoffs")
 def pareto(params_path: str = PARAMS_OPTION) -> None:
     """Merge data/pareto/<algo>.parquet, screen (params.screen), keep and pick; write the Pareto outputs."""
     params = params_from(params_path)
-    if params.optimise is None or not params.optimise.algorithms:
-        raise ValueError("params.yaml: optimise.algorithms: needed to know which fronts to merge")
-    algos = list(params.optimise.algorithms)
-    fronts = {a: read_table(FRONTS_DIR / f"{a}.parquet") for a in algos}
+    if params.optimise is None or not params.optimise.sources:
+        raise ValueError("params.yaml: optimise.sources: needed to know which fronts to merge")
+    o = params.optimise
+    algos = list(o.sources)
+    tables = {a: read_table(FRONTS_DIR / f"{a}.parquet") for a in algos}
+    reports = {a: json.loads((REPORTS_DIR / f"optimise_{a}.json").read_text()) for a in algos}
+    # a source's front is its last round's rows (earlier rounds are the infill history)
+    fronts = {a: t[t["round"] == t["round"].max()].drop(columns="round") for a, t in tables.items()}
     result = select_designs(fronts, params.screen)
+    result.summary.update(source_summary(fronts, reports, result.merged, params.screen, o))
     kept = result.merged[result.merged["kept"]]
-    figures = {"tradeoffs.png": tradeoffs_figure(kept, algos), "distributions.png": distributions_figure(kept, algos)}
+    figures = {
+        "tradeoffs.png": tradeoffs_figure(kept, algos),
+        "distributions.png": distributions_figure(kept, algos),
+        "infill.png": infill_figure({a: r["rounds"] for a, r in reports.items() if a != "oracle"}),
+    }
     plot_data = {a: tradeoff_data(kept, a).to_csv(index=False) for a in algos}
 
     write_parquet(MERGED, result.merged, table_schema(result.merged))

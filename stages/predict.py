@@ -24,8 +24,9 @@ def predict(
 ) -> None:
     """Write the designs plus the 11 predicted objectives (and <key>_std for the BNN) to --out.
 
-    All in natural units; for the BNN's log-transformed objectives the value is the median back-transform
-    and <key>_std the delta-method standard deviation (hevlib/surrogates/transform.py)."""
+    All in natural units and inside each objective's physical range (no negative fuel, mass, emission or
+    deviation; speed_dev at most 1); for the BNN's log-transformed objectives the value is the median
+    back-transform and <key>_std the delta-method standard deviation (hevlib/surrogates/transform.py)."""
     from hevlib.surrogates.metrics import load_surrogate, prediction_table, write_prediction_table
 
     if out.suffix.lower() not in (".csv", ".parquet"):

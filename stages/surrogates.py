@@ -71,6 +71,8 @@ def _xy(df, what: str):
 def surrogates_stage(params: str = PARAMS_OPTION) -> None:
     """Fit the BNN and the regressions on the DOE; judge them; write models/, metrics and plots.
 
+    Split metrics (train, test) come from models fitted on the training split only; the saved models are
+    refitted on every DOE design and judged on the held-out designs, which nothing is ever fitted on.
     Reads params surrogate (all of it) and screen.speed_dev_max (which held-out designs count as
     followers of the cycle in the metrics)."""
     from hevlib.plots import save_figure
@@ -90,10 +92,7 @@ def surrogates_stage(params: str = PARAMS_OPTION) -> None:
     heldout_df, new_heldout = _load_heldout(cfg)
     Xh, Yh = _xy(heldout_df, str(HELDOUT))
 
-    with progress_callback(f"bnn: {cfg.surrogate.bnn.max_epochs} epochs") as cb:
-        study = fit_surrogates(
-            X, Y, Xh, Yh, cfg.surrogate, cfg.design_space.space(), cfg.screen.speed_dev_max, progress=cb
-        )
+    study = fit_surrogates(X, Y, Xh, Yh, cfg.surrogate, cfg.design_space.space(), cfg.screen.speed_dev_max)
     bnn, reg = study.models["bnn"], study.models["regression"]
     metrics = study.metrics
     signs = compare_signs(reg, study_coef)
@@ -106,20 +105,26 @@ def surrogates_stage(params: str = PARAMS_OPTION) -> None:
     write_json(METRICS, metrics)
     write_json(SIGNS_JSON, {"summary": sign_summary(signs), "coefficients": signs.to_dict(orient="records")})
     write_text(SIGNS_MD, signs_markdown(signs))
-    write_text(TRAINING_CSV, training_curve_table(bnn.history_).to_csv(index=False, float_format="%.6g"))
+    write_text(TRAINING_CSV, training_curve_table(bnn).to_csv(index=False, float_format="%.6g"))
     for name, fig in figures.items():
         save_figure(fig, PLOTS_DIR / name)
 
     n = study.n_designs
     offsets = dict(zip(OBJECTIVES, bnn.target_transform_.offset, strict=True))
     logged = ", ".join(o + (f" (+{offsets[o]:.3g})" if offsets[o] else "") for o in bnn.log_targets) or "none"
+    evidence = ", ".join(
+        f"{name} {rec['gamma']:.1f} ({rec['epochs']} ep, {rec['stop']})" for name, rec in bnn.evidence_summary().items()
+    )
     typer.echo(
         f"surrogates: {n['train']} train / {n['test']} test / {n['heldout']} held-out designs "
         f"({n['heldout_followers']} follow the cycle: speed_dev <= {cfg.screen.speed_dev_max:g}); "
-        f"BNN log targets: {logged}; alpha={bnn.alpha_:.3g} beta={bnn.beta_:.3g} "
-        f"gamma={bnn.gamma_:.1f} of {bnn.n_weights_} weights after {bnn.epochs_} epochs"
+        f"saved models fitted on all {len(X)} DOE designs; BNN log targets: {logged}"
     )
     typer.echo(
-        "held-out R^2 and Spearman rho, all held-out designs and the followers (fol.):\n"
+        f"BNN {len(bnn.network_names_)} network(s) 7-{bnn.hidden_}-{bnn.n_out_} ({bnn.n_weights_} weights each, "
+        f"{bnn.n_residuals_} residuals); gamma per network: {evidence}"
+    )
+    typer.echo(
+        "held-out R^2, Spearman rho (all held-out designs and the followers, fol.) and BNN 2-sigma coverage:\n"
         + summary_table(metrics).to_string(float_format=lambda v: f"{v:.3f}")
     )

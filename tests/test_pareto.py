@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -325,11 +326,26 @@ def test_pareto_stage_writes_its_outputs(tmp_path, monkeypatch):
     assert out.exit_code == 1 and "data/pareto/nsga3.parquet: no such file" in out.output
     assert not Path("data/pareto/merged.parquet").exists()
     Path("data/pareto").mkdir(parents=True)
-    for algo, front in _fronts().items():
+    Path("reports").mkdir()
+    fronts = {**_fronts(), "oracle": synthetic_front(80, 13)}
+    for algo, front in fronts.items():
         front["sim_speed_dev"] = front["sim_speed_dev"] / 2
-        front.to_parquet(f"data/pareto/{algo}.parquet")
+        earlier = synthetic_front(40, 99)  # an earlier infill round: history, never merged
+        earlier.insert(0, "round", 0)
+        front.insert(0, "round", 1)
+        pd.concat([earlier, front], ignore_index=True).to_parquet(f"data/pareto/{algo}.parquet")
+        rounds = [{"round": r, "n_simulations": 27 + 100 * r, "hv_ratio_to_oracle": 0.5 + 0.1 * r} for r in (0, 1)]
+        Path(f"reports/optimise_{algo}.json").write_text(json.dumps({"n_simulations": 127, "rounds": rounds}))
     out = runner.invoke(app, ["pareto"])
     assert out.exit_code == 0, out.output
+    report = json.loads(Path("reports/pareto.json").read_text())
+    assert report["counts"]["input"] == sum(len(f) for f in fronts.values())  # last rounds only
+    assert set(report["sources"]) == {"nsga3", "moead", "moga", "oracle"} and report["hv_reference"] == 1.1
+    assert report["sources"]["oracle"]["hv_ratio_to_oracle"] == 1.0
+    assert sum(v["picked"] for v in report["sources"].values()) >= report["counts"]["picked"]
+    norm = report["normalisation"]
+    assert norm["ideal"]["v_max"] >= norm["nadir"]["v_max"] and norm["ideal"]["fc"] <= norm["nadir"]["fc"]
+    assert Path("reports/plots/pareto/infill.png").stat().st_size > 0
     merged = pd.read_parquet("data/pareto/merged.parquet")
     selected = pd.read_parquet("data/pareto/selected.parquet")
     assert {"design_id", "algo", "kept", "rank", "pass_mass_max", *DESIGN_VARS} <= set(merged.columns)

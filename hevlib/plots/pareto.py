@@ -116,3 +116,25 @@ def tradeoff_data(kept: pd.DataFrame, algo: str, objectives: Sequence[str] = OBJ
 
 
 __all__ = ["TRADEOFF_PAIRS", "tradeoffs_figure", "distributions_figure", "tradeoff_data"]
+
+
+def infill_figure(rounds: dict[str, list[dict]]) -> plt.Figure:
+    """Hypervolume ratio to the oracle against simulations used, one line per surrogate-assisted source
+    (one marker per round), the oracle as the line at 1."""
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for name, entries in rounds.items():
+        pts = [
+            (e["n_simulations"], e["hv_ratio_to_oracle"]) for e in entries if e.get("hv_ratio_to_oracle") is not None
+        ]
+        if pts:
+            x, y = zip(*pts, strict=True)
+            ax.plot(x, y, marker="o", label=name)
+    ax.axhline(1.0, color="k", linestyle="--", label="oracle (simulator in the loop)")
+    ax.set_xscale("log")
+    ax.set_xlabel("simulations used (DOE included)")
+    ax.set_ylabel("hypervolume / oracle's")
+    ax.set_title("Surrogate-assisted search with infill against the oracle")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig

@@ -1,4 +1,4 @@
-"""Surrogate figures: parity plots of all eleven objectives and the BNN's evidence training curve.
+"""Surrogate figures: parity plots of all eleven objectives and the BNN's LM / evidence training curve.
 
 Parity plots are readable despite the few designs that barely move on the sizing cycle: those that
 fail the screening rule (simulated ``speed_dev`` above ``screen.speed_dev_max``) are drawn as faint
@@ -89,35 +89,52 @@ def _symlog(ax, values: np.ndarray) -> None:
     ax.set_yscale("symlog", linthresh=linthresh)
 
 
-def training_curve_figure(history: dict[str, np.ndarray], n_weights: int | None = None) -> plt.Figure:
-    """E_D, E_W, alpha, beta and gamma against epoch (log scale except gamma)."""
-    keys = ("e_d", "e_w", "alpha", "beta", "gamma")
-    labels = {
-        "e_d": "E$_D$ (sum sq. std. residuals)",
-        "e_w": "E$_W$ (sum sq. weights)",
-        "alpha": r"$\alpha$",
-        "beta": r"$\beta$",
-        "gamma": r"$\gamma$ (effective parameters)",
-    }
-    epoch = np.arange(1, len(history["e_d"]) + 1)
-    fig, axes = plt.subplots(1, 5, figsize=(16, 3.4))
-    for key, ax in zip(keys, axes, strict=True):
-        ax.plot(epoch, history[key], lw=1.0)
-        if key != "gamma":
+def training_curve_figure(model) -> plt.Figure:
+    """The BNN's Levenberg-Marquardt / evidence training curve, one line per network: gamma (with the
+    network's weights and the residuals as limits), E_D per residual, alpha, beta and the LM damping mu
+    against epoch (log scale except gamma)."""
+    h = model.history_
+    names = model.network_names_
+    panels = (
+        ("gamma", r"$\gamma$ (effective parameters)", False),
+        ("e_d", "E$_D$ / N (mean sq. std. residual)", True),
+        ("alpha", r"$\alpha$ (weight prior precision)", True),
+        ("beta", r"$\beta$ (noise precision / 2)", True),
+        ("mu", r"$\mu$ (LM damping)", True),
+    )
+    epoch = np.arange(h["gamma"].shape[1])
+    fig, axes = plt.subplots(1, len(panels), figsize=(18, 3.8))
+    colors = plt.get_cmap("tab20")(np.linspace(0, 1, max(len(names), 2)))
+    for (key, title, log), ax in zip(panels, axes, strict=True):
+        first = 1 if key == "alpha" else 0  # the start value of alpha is ~0 (trainbr's first step is plain LM)
+        for i, name in enumerate(names):
+            y = h[key][i] / (model.n_residuals_ if key == "e_d" else 1.0)
+            ax.plot(epoch[first:], y[first:], lw=1.0, color=colors[i], label=name)
+        if log:
             ax.set_yscale("log")
-        elif n_weights:
-            ax.axhline(n_weights, color="k", ls="--", lw=0.8, label=f"N$_w$ = {n_weights}")
-            ax.legend(fontsize=8)
+        else:
+            n_w, n_res = model.n_weights_, model.n_residuals_
+            ax.axhline(n_w, color="k", ls="--", lw=0.8, label=f"N$_w$ = {n_w}")
+            if n_res <= 2 * n_w:
+                ax.axhline(n_res, color="k", ls=":", lw=0.8, label=f"N = {n_res}")
+            ax.set_ylim(0, 1.1 * min(n_res, 2 * n_w) if n_res <= 2 * n_w else 1.1 * n_w)
+            title = f"{title}, N = {n_res}"
         ax.set_xlabel("epoch")
-        ax.set_title(labels[key], fontsize=9)
-    fig.suptitle("BNN training (Bayesian regularisation, evidence re-estimation)")
+        ax.set_title(title, fontsize=9)
+        ax.tick_params(labelsize=7)
+    axes[0].legend(fontsize=6, ncol=2)
+    fig.suptitle(
+        f"BNN training: Levenberg-Marquardt with MacKay evidence updates ({len(names)} network(s) "
+        f"7-{model.hidden_}-{model.n_out_})"
+    )
     return fig
 
 
 def surrogate_figures(study) -> dict[str, plt.Figure]:
     """The ``surrogates`` stage's figures of a :class:`~hevlib.surrogates.evaluation.SurrogateStudy`, by
-    file name: ``parity_<model>.png`` (train and held-out points) and ``bnn_training.png``. Both parity
-    plots use symmetric-log axes for the BNN's log-transformed objectives."""
+    file name: ``parity_<model>.png`` (train points of the split model, held-out points of the saved model)
+    and ``bnn_training.png`` (the saved BNN). Both parity plots use symmetric-log axes for the BNN's
+    log-transformed objectives."""
     bnn = study.models["bnn"]
     figures = {
         f"parity_{m}.png": parity_figure(
@@ -128,5 +145,5 @@ def surrogate_figures(study) -> dict[str, plt.Figure]:
         )
         for m, pred in study.predictions.items()
     }
-    figures["bnn_training.png"] = training_curve_figure(bnn.history_, n_weights=bnn.n_weights_)
+    figures["bnn_training.png"] = training_curve_figure(bnn)
     return figures

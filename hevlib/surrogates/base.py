@@ -26,6 +26,25 @@ class Surrogate(Protocol):
     def predict(self, X: np.ndarray) -> np.ndarray: ...
 
 
+#: Physical range of every objective (``OBJECTIVES`` order): every one but ``diff_soc`` is non-negative,
+#: ``speed_dev`` is a share of the cycle (0-1), ``accel_dev`` a percentage (0-100), ``diff_soc`` a difference
+#: of two states of charge (-1..1). Both surrogates clip their predictions to it (:func:`clip_objectives`).
+OBJECTIVE_BOUNDS: dict[str, tuple[float, float]] = {
+    **{name: (0.0, np.inf) for name in OBJECTIVES},
+    "accel_dev": (0.0, 100.0),
+    "speed_dev": (0.0, 1.0),
+    "diff_soc": (-1.0, 1.0),
+}
+_LOWER = np.array([OBJECTIVE_BOUNDS[name][0] for name in OBJECTIVES])
+_UPPER = np.array([OBJECTIVE_BOUNDS[name][1] for name in OBJECTIVES])
+
+
+def clip_objectives(Y: np.ndarray) -> np.ndarray:
+    """Predictions (n, 11) clipped to :data:`OBJECTIVE_BOUNDS` (so a surrogate never predicts a negative
+    fuel consumption, mass, emission, distance or deviation, nor a speed deviation above 1)."""
+    return np.clip(Y, _LOWER, _UPPER)
+
+
 class NotFittedError(ValueError):
     """``predict`` or ``save`` called on a surrogate that has not been fitted or loaded."""
 

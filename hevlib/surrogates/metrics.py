@@ -1,6 +1,7 @@
 """Judging and using surrogates: the seeded train/test split, per-objective error metrics (R^2, RMSE, MAE
-in natural units, and Spearman's rank correlation: what an optimiser needs is the order of designs),
-loading a fitted model, and prediction tables."""
+in natural units, Spearman's rank correlation: what an optimiser needs is the order of designs, and for a
+model with a predictive std the share of points within 2 sigma), loading a fitted model, and prediction
+tables."""
 
 from __future__ import annotations
 
@@ -60,22 +61,42 @@ def spearman(y_true: np.ndarray, y_pred: np.ndarray) -> np.ndarray:
         return np.where(den > 0, (rt * rp).sum(axis=0) / den, np.nan)
 
 
-def objective_metrics(y_true: np.ndarray, y_pred: np.ndarray) -> dict[str, dict[str, float]]:
-    """``{objective: {"r2", "rmse", "mae", "spearman"}}`` for (n, 11) arrays in ``OBJECTIVES`` order.
+def coverage(y_true: np.ndarray, y_pred: np.ndarray, y_std: np.ndarray, k: float = 2.0) -> np.ndarray:
+    """Share of rows per column with ``|y_true - y_pred| <= k * y_std`` (NaN with no rows). For a calibrated
+    Gaussian predictive and ``k = 2`` it is about 0.95."""
+    y_true, y_pred, y_std = (np.atleast_2d(np.asarray(a, dtype=float).T).T for a in (y_true, y_pred, y_std))
+    if y_true.shape[0] == 0:
+        return np.full(y_true.shape[1], np.nan)
+    return np.mean(np.abs(y_true - y_pred) <= k * y_std, axis=0)
+
+
+def objective_metrics(
+    y_true: np.ndarray, y_pred: np.ndarray, y_std: np.ndarray | None = None
+) -> dict[str, dict[str, float]]:
+    """``{objective: {"r2", "rmse", "mae", "spearman"}}`` for (n, 11) arrays in ``OBJECTIVES`` order, plus
+    ``coverage_2sigma`` (share of rows within ``y_pred +- 2 y_std``) when the predictive std is given.
 
     With no rows every figure is NaN (written as JSON null)."""
     y_true, y_pred = np.asarray(y_true, dtype=float), np.asarray(y_pred, dtype=float)
     if y_true.shape != y_pred.shape or y_true.ndim != 2 or y_true.shape[1] != len(OBJECTIVES):
         raise ValueError(f"metrics: expected two (n, {len(OBJECTIVES)}) arrays, got {y_true.shape} and {y_pred.shape}")
+    if y_std is not None and np.shape(y_std) != y_true.shape:
+        raise ValueError(f"metrics: expected the std as a {y_true.shape} array, got {np.shape(y_std)}")
     if len(y_true) == 0:
         nan = float("nan")
-        return {obj: {"r2": nan, "rmse": nan, "mae": nan, "spearman": nan} for obj in OBJECTIVES}
-    r2, e, a = r2_score(y_true, y_pred), rmse(y_true, y_pred), mae(y_true, y_pred)
-    rho = spearman(y_true, y_pred)
-    return {
-        obj: {"r2": float(r2[k]), "rmse": float(e[k]), "mae": float(a[k]), "spearman": float(rho[k])}
-        for k, obj in enumerate(OBJECTIVES)
-    }
+        out = {obj: {"r2": nan, "rmse": nan, "mae": nan, "spearman": nan} for obj in OBJECTIVES}
+    else:
+        r2, e, a = r2_score(y_true, y_pred), rmse(y_true, y_pred), mae(y_true, y_pred)
+        rho = spearman(y_true, y_pred)
+        out = {
+            obj: {"r2": float(r2[k]), "rmse": float(e[k]), "mae": float(a[k]), "spearman": float(rho[k])}
+            for k, obj in enumerate(OBJECTIVES)
+        }
+    if y_std is not None:
+        cov = coverage(y_true, y_pred, y_std)
+        for k, obj in enumerate(OBJECTIVES):
+            out[obj]["coverage_2sigma"] = float(cov[k])
+    return out
 
 
 def load_surrogate(kind: str, models_dir: str | Path = "models"):

@@ -4,6 +4,15 @@
 order), fitted by OLS. For every objective: coefficients, standard errors
 ``se = sqrt(s^2 diag((A^T A)^-1))`` with ``s^2 = RSS / (n - p)``, t statistics, two-sided p-values from
 Student's t with ``n - p`` degrees of freedom (``scipy.stats.t``), R^2 and adjusted R^2. Saved as JSON.
+
+The saved model (``models/regression.json``) is fitted on every DOE design, as the study fitted all 27 L27
+runs (an orthogonal array loses its orthogonality when rows are left out); only the model that is judged
+on the test split is fitted on the training rows (:mod:`hevlib.surrogates.evaluation`).
+
+Non-negative objectives: a linear model extrapolates below zero over parts of the box (speed_dev, fc, hc,
+accel_dev on the L27 fit). ``predict`` clips every objective to its physical range
+(:data:`hevlib.surrogates.base.OBJECTIVE_BOUNDS`: all but ``diff_soc`` non-negative, ``speed_dev`` at most 1,
+``accel_dev`` at most 100 %); the stored coefficients are the plain OLS ones, the study's form.
 """
 
 from __future__ import annotations
@@ -22,6 +31,7 @@ from hevlib.surrogates.base import (
     NotFittedError,
     check_designs,
     check_targets,
+    clip_objectives,
     space_from_dict,
     space_to_dict,
 )
@@ -83,10 +93,10 @@ class LinearRegressions:
         return self
 
     def predict(self, X: np.ndarray) -> np.ndarray:
-        """Objectives (n, 11) in natural units."""
+        """Objectives (n, 11) in natural units, clipped to their physical range (module doc)."""
         self._check_fitted()
         X = check_designs(self.space, X)
-        return self.coef_[0] + X @ self.coef_[1:]
+        return clip_objectives(self.coef_[0] + X @ self.coef_[1:])
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "coef_"):

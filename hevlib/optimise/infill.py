@@ -1,0 +1,289 @@
+"""The optimise stage's work: the oracle (simulator in the loop) and surrogate-assisted search with infill.
+
+- :func:`oracle` -- any of the optimisers on the simulator itself (:class:`SimulatorModel`): the truth
+  the surrogate method is measured against. Its front needs no re-simulation; every simulation counts.
+- :func:`surrogate_assisted` -- model management (Jin 2011's "evolution control" by generations):
+  round 0 is the study's one-shot protocol (the surrogate fitted on the DOE, a full search, the front
+  re-simulated); each further round adds the re-simulated candidates to the training data, refits the
+  surrogate and resumes the search from the last population for ``infill.n_gen`` generations. The
+  candidates of a round are at most ``infill.designs_per_round`` designs of the surrogate's front,
+  chosen by :func:`select_candidates`. A round's front is the non-dominated set (simulated objectives)
+  of every screen-passing candidate simulated so far, thinned to the population size
+  (:func:`archive_front`); every round's front is kept (column ``round``), the last one is the
+  source's final front.
+
+Every simulation a source uses is counted in ``n_simulations`` (the DOE included for the surrogate
+methods), and every round is judged by the one hypervolume (:class:`HvSettings`) of its re-simulated
+designs, against the oracle's when given.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+
+from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
+from hevlib.optimise.algorithms import Front, optimise
+from hevlib.optimise.problem import HevProblem, SimulatorModel
+from hevlib.optimise.report import HvSettings, front_report, runtimes
+from hevlib.optimise.resim import drop_stalled, front_schema, front_table, resimulate
+from hevlib.params import AlgoParams, InfillParams
+from hevlib.pareto import nondominated_mask, objective_matrix, passes_screen, pick_diverse, to_minimisation
+
+ROUND = "round"
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    """One source's run: its final front, the table of every round's rows, the report, the wall times."""
+
+    front: Front
+    table: pd.DataFrame
+    report: dict
+    runtimes: dict = field(default_factory=dict)
+    simulated_X: np.ndarray | None = None  # every design simulated for this result (stalled included)
+    responses: pd.DataFrame | None = None  # their responses, in the same order
+    population: np.ndarray | None = None  # the optimiser's final population (to resume from)
+
+    @property
+    def schema(self) -> pa.Schema:
+        """The table's schema: with ``round`` first when the table has it (the stage's Parquet)."""
+        base = front_schema(self.front.std is not None)
+        if ROUND in self.table.columns:
+            return base.insert(0, pa.field(ROUND, pa.int64(), nullable=False))
+        return base
+
+
+def select_candidates(front: Front, k: int, criterion: str, span: np.ndarray) -> np.ndarray:
+    """Indices of at most ``k`` designs of ``front`` to simulate (all of them when the front is no larger).
+
+    Both criteria are greedy farthest-point sampling in the predicted objectives scaled by ``span``
+    (the hypervolume's normalisation), so the candidates cover the front rather than one corner:
+
+    - ``diverse``: starts from the design nearest the front's ideal point, then always takes the design
+      farthest from those already taken;
+    - ``uncertainty``: the same distances weighted by ``1 + u / mean(u)``, ``u`` the surrogate's mean
+      standard deviation over the objectives in the same units, and starts from the most uncertain
+      design: where the model knows least, a simulation teaches it most (falls back to ``diverse`` for
+      a surrogate without a standard deviation).
+    """
+    n = len(front)
+    if n <= k:
+        return np.arange(n)
+    F = to_minimisation(front.F) / span
+    F = F - F.min(axis=0)
+    if criterion == "uncertainty" and front.std is not None:
+        u = np.mean(front.std / span, axis=1)
+        weight = 1.0 + u / max(float(u.mean()), 1e-300)
+        start = int(np.argmax(u))
+    elif criterion in ("uncertainty", "diverse"):
+        weight = np.ones(n)
+        start = int(np.argmin(np.linalg.norm(F, axis=1)))
+    else:
+        raise ValueError(f"optimise.infill.criterion: unknown criterion {criterion!r}")
+    if np.all(weight == 1.0):
+        return np.sort(pick_diverse(F, k, start=start))
+    chosen = [start]
+    dist = np.linalg.norm(F - F[start], axis=1)
+    for _ in range(k - 1):
+        score = dist * weight
+        score[chosen] = -1.0
+        nxt = int(np.argmax(score))
+        chosen.append(nxt)
+        dist = np.minimum(dist, np.linalg.norm(F - F[nxt], axis=1))
+    return np.sort(np.array(chosen))
+
+
+def _subset(front: Front, idx: np.ndarray) -> Front:
+    std = front.std[idx] if front.std is not None else None
+    return dataclasses.replace(front, X=front.X[idx], F=front.F[idx], std=std)
+
+
+def _simulate_front(front: Front, simulate, problem: HevProblem) -> tuple[Front, pd.DataFrame, pd.DataFrame, int]:
+    """Re-simulate ``front``: (front without stalled designs, its table, all responses, stalled count)."""
+    sim = resimulate(front.X, simulate) if len(front) else pd.DataFrame({c: [] for c in RESPONSES})
+    kept, sim_kept, n_stalled = drop_stalled(front, sim)
+    return kept, front_table(kept, sim_kept, problem), sim, n_stalled
+
+
+def _ratio(hv: float, hv_oracle: float | None) -> float | None:
+    return hv / hv_oracle if hv_oracle else None
+
+
+def oracle(
+    make_problem: Callable[..., HevProblem],
+    settings: AlgoParams,
+    simulate: Callable[[np.ndarray], pd.DataFrame],
+    hv_for: Callable[[pd.DataFrame], HvSettings],
+    progress: Callable[[int, int], None] | None = None,
+) -> StudyResult:
+    """``settings.algorithm`` with the simulator as the model; ``make_problem(model, stalled)`` builds the
+    same problem the surrogate methods solve (constraints on simulated figures, stalls infeasible).
+    ``hv_for(table)`` gives the hypervolume settings once the front is known (its normalisation may
+    depend on the oracle's own designs)."""
+    t0 = time.perf_counter()
+    model = SimulatorModel(simulate)
+    problem = make_problem(model, stalled=model.stalled)
+    front = optimise(problem, settings.algorithm, settings, progress)
+    front, table, _, n_stalled = _simulate_front(front, model.responses, problem)
+    table.insert(0, ROUND, 0)
+    report = front_report(front, table, hv_for(table), settings=settings)
+    report.update(
+        algo="oracle",
+        algorithm=settings.algorithm,
+        surrogate=None,
+        n_simulations=model.n_simulations,
+        n_stalled_dropped=n_stalled,
+        rounds=[_round_entry(0, model.n_simulations, report, report["hypervolume"])],
+    )
+    wall = time.perf_counter() - t0
+    times = {**runtimes(front, 0.0), "algo": "oracle", "runtime_total_s": wall}
+    return StudyResult(front, table, report, times)
+
+
+def _round_entry(r: int, n_sims: int, report: dict, hv_oracle: float | None) -> dict:
+    return {
+        "round": r,
+        "n_simulations": int(n_sims),
+        "front_size": report["front_size"],
+        "hypervolume": report["hypervolume"],
+        "hypervolume_se": report["hypervolume_se"],
+        "hv_ratio_to_oracle": _ratio(report["hypervolume"], hv_oracle),
+    }
+
+
+def optimise_and_resimulate(
+    problem: HevProblem,
+    algo: str,
+    settings: AlgoParams,
+    simulate: Callable[[np.ndarray], pd.DataFrame],
+    hv: HvSettings,
+    progress: Callable[[int, int], None] | None = None,
+    *,
+    initial: np.ndarray | None = None,
+    n_candidates: int | None = None,
+    criterion: str = "diverse",
+) -> StudyResult:
+    """One round: search ``problem`` (from ``initial`` if given), re-simulate the front (at most
+    ``n_candidates`` of it, chosen by :func:`select_candidates`), tabulate and report. With the defaults
+    this is the study's one-shot protocol. ``report["n_simulations"]`` counts this round's simulations;
+    ``runtimes["responses"]`` holds every simulated row (stalled ones too: the infill loop learns from them)."""
+    t0 = time.perf_counter()
+    found = optimise(problem, algo, settings, progress, initial=initial)
+    k = len(found) if n_candidates is None else int(n_candidates)
+    candidates = _subset(found, select_candidates(found, k, criterion, hv.norm.span))
+    t1 = time.perf_counter()
+    front, table, sim, n_stalled = _simulate_front(candidates, simulate, problem)
+    resim_s = time.perf_counter() - t1
+    report = front_report(front, table, hv, settings=settings)
+    report.update(n_simulations=len(candidates), n_stalled_dropped=n_stalled)
+    times = {**runtimes(front, resim_s), "runtime_total_s": time.perf_counter() - t0}
+    return StudyResult(front, table, report, times, candidates.X, sim, found.population)
+
+
+def archive_front(tables: list[pd.DataFrame], max_size: int, hv: HvSettings) -> pd.DataFrame:
+    """The source's front after a round: of every design simulated so far in this run, those that pass
+    the screen (``hv.screen``; all when None) and that no other such design dominates (simulated
+    objectives) -- an SAEA returns the best of what it truly evaluated, not only its last batch. A
+    design simulated in several rounds appears once (its latest row).
+
+    In 11 objectives almost every design is non-dominated, so the front is thinned to ``max_size``
+    designs (the population size: as many as the oracle's front holds, so hypervolumes compare like with
+    like) by farthest-point sampling on the simulated objectives normalised by ``hv.norm``, starting
+    from the design nearest the ideal point."""
+    pool = pd.concat(tables, ignore_index=True).drop_duplicates(subset=list(DESIGN_VARS), keep="last")
+    F = objective_matrix(pool, OBJECTIVES, what="simulated candidates")
+    usable = np.all(np.isfinite(F), axis=1)
+    if hv.screen is not None and len(pool):
+        usable &= passes_screen(pool, hv.screen)
+    keep = np.zeros(len(pool), dtype=bool)
+    keep[usable] = nondominated_mask(F[usable])
+    front = pool[keep].reset_index(drop=True)
+    if len(front) > max_size:
+        Fn = hv.norm(objective_matrix(front, OBJECTIVES))
+        Fn = Fn - Fn.min(axis=0)
+        idx = np.sort(pick_diverse(Fn, max_size, start=int(np.argmin(np.linalg.norm(Fn, axis=1)))))
+        front = front.iloc[idx].reset_index(drop=True)
+    return front.assign(nondominated_sim=True)
+
+
+def surrogate_assisted(
+    algo: str,
+    settings: AlgoParams,
+    infill: InfillParams,
+    make_problem: Callable[..., HevProblem],
+    fit: Callable[[np.ndarray, np.ndarray], object],
+    X_doe: np.ndarray,
+    Y_doe: np.ndarray,
+    simulate: Callable[[np.ndarray], pd.DataFrame],
+    hv: HvSettings,
+    hv_oracle: float | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> StudyResult:
+    """Rounds 0..``infill.rounds`` of fit -> search -> re-simulate candidates -> add to training data.
+
+    ``fit(X, Y)`` returns a fitted surrogate (only ever on the DOE and the designs this run simulated:
+    never the held-out set); ``make_problem(model)`` the problem on it. Returns the last round's front,
+    every round's rows (column ``round``) and the report with ``rounds`` and ``n_simulations`` (DOE
+    included).
+    """
+    X_train, Y_train = np.asarray(X_doe, dtype=float), np.asarray(Y_doe, dtype=float)
+    n_sims, n_stalled = len(X_train), 0
+    population, tables, entries, times, res, archive = None, [], [], [], None, []
+    for r in range(infill.rounds + 1):
+        t0 = time.perf_counter()
+        problem = make_problem(fit(X_train, Y_train))
+        round_settings = settings if r == 0 else settings.model_copy(update={"n_gen": infill.n_gen})
+        res = optimise_and_resimulate(
+            problem,
+            algo,
+            round_settings,
+            simulate,
+            hv,
+            progress,
+            initial=population,
+            n_candidates=infill.designs_per_round,
+            criterion=infill.criterion,
+        )
+        population = res.population
+        n_sims += res.report["n_simulations"]
+        n_stalled += res.report["n_stalled_dropped"]
+        Y_new = res.responses[list(OBJECTIVES)].to_numpy(dtype=float)
+        ok = np.all(np.isfinite(Y_new), axis=1)
+        X_train, Y_train = np.vstack([X_train, res.simulated_X[ok]]), np.vstack([Y_train, Y_new[ok]])
+        archive.append(res.table)
+        front_r = archive_front(archive, max(settings.pop_size, len(res.population)), hv)
+        report_r = front_report(res.front, front_r, hv, settings=round_settings)
+        tables.append(front_r.assign(**{ROUND: r})[[ROUND, *front_r.columns]])
+        entries.append(_round_entry(r, n_sims, report_r, hv_oracle))
+        times.append({"round": r, "runtime_s": time.perf_counter() - t0, "n_simulations": n_sims})
+    report = report_r
+    report.update(
+        settings={**settings.model_dump(), **res.front.settings},
+        n_simulations=int(n_sims),
+        n_doe=int(len(X_doe)),
+        n_stalled_dropped=n_stalled,
+        hv_ratio_to_oracle=_ratio(report["hypervolume"], hv_oracle),
+        rounds=entries,
+        infill=infill.model_dump(),
+    )
+    wall = sum(t["runtime_s"] for t in times)
+    table = pd.concat(tables, ignore_index=True)
+    return StudyResult(res.front, table, report, {"algo": algo, "runtime_total_s": wall, "rounds": times})
+
+
+__all__ = [
+    "ROUND",
+    "archive_front",
+    "StudyResult",
+    "optimise_and_resimulate",
+    "oracle",
+    "select_candidates",
+    "surrogate_assisted",
+]

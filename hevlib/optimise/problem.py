@@ -1,0 +1,241 @@
+"""The sizing problem the optimisers see (SPEC section 8): seven variables, eleven minimised objectives and
+the constraints, on any model of the car (a surrogate, or the simulator itself: :class:`SimulatorModel`),
+plus the one repair that keeps the integer variables whole and the reformulated views MOEA/D and the
+weighted-sum GA need.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+
+import numpy as np
+import pandas as pd
+from pymoo.core.problem import Problem
+from pymoo.core.repair import Repair
+
+from hevlib.design import (
+    DESIGN_VARS,
+    INTEGER_MASK,
+    OBJECTIVES,
+    DesignSpace,
+    buildable_gear_sets,
+    nearest_gear_set,
+)
+from hevlib.indicators import Normalisation
+from hevlib.pareto import to_minimisation
+
+
+class HevProblem(Problem):
+    """Size the hybrid on a surrogate: 7 variables, 11 minimised objectives, the mass constraint and,
+    optionally, the screening rules as constraints.
+
+    ``surrogate`` is any :class:`hevlib.surrogates.base.Surrogate` (``predict(X) -> (n, 11)`` in natural
+    units; ``predict_std`` is used when present); ``mass_kg`` maps ``X`` (n, 7) to the exact test mass
+    (n,) (``Simulator.mass_kg``). The whole population is evaluated in one call of each.
+
+    Constraints, all ``G <= 0`` feasible and dimensionless (violations add up on one scale):
+
+    - always: exact test mass at most ``m_veh_max_kg`` (``m / m_max - 1``);
+    - ``speed_dev_max``: the surrogate's predicted speed deviation (share of the sizing cycle off the
+      trace) at most that (``pred / max - 1``), so fronts are not spent on designs that cannot follow
+      the sizing cycle (a stalled design misses the trace for most of it);
+    - ``stalled``: a callable ``X -> (n,) bool`` that says which designs stall (the simulator, where it
+      is in the loop); a stalled design is infeasible (``+1``, else ``-1``) whatever its objectives;
+    - ``gen_below_motor``: generator peak power below the motor's (``p_gen / p_mot - 1 < 0``, exact).
+
+    ``buildable_gear_set`` makes the repair snap (n_r, n_s) to the nearest buildable planetary set.
+    """
+
+    def __init__(
+        self,
+        surrogate,
+        space: DesignSpace,
+        mass_kg: Callable[[np.ndarray], np.ndarray],
+        m_veh_max_kg: float,
+        *,
+        speed_dev_max: float | None = None,
+        gen_below_motor: bool = False,
+        buildable_gear_set: bool = False,
+        stalled: Callable[[np.ndarray], np.ndarray] | None = None,
+    ):
+        if not m_veh_max_kg > 0:
+            raise ValueError(f"m_veh_max_kg: must be positive, got {m_veh_max_kg}")
+        j_r, j_s = DESIGN_VARS.index("n_r"), DESIGN_VARS.index("n_s")
+        if space.upper[j_s] >= space.lower[j_r]:
+            raise ValueError(
+                "design_space.n_s: upper bound must lie below n_r's lower bound, or the optimisers "
+                "would propose gear sets with n_s >= n_r"
+            )
+        if speed_dev_max is not None and not speed_dev_max > 0:
+            raise ValueError(f"speed_dev_max: must be positive, got {speed_dev_max}")
+        self.constraint_names = (
+            ["mass"]
+            + (["speed_dev"] if speed_dev_max is not None else [])
+            + (["gen_below_motor"] if gen_below_motor else [])
+            + (["stalled"] if stalled is not None else [])
+        )
+        super().__init__(
+            n_var=space.n,
+            n_obj=len(OBJECTIVES),
+            n_ieq_constr=len(self.constraint_names),
+            xl=space.lower,
+            xu=space.upper,
+        )
+        self.surrogate = surrogate
+        self.mass_kg = mass_kg
+        self.m_veh_max_kg = float(m_veh_max_kg)
+        self.speed_dev_max = speed_dev_max
+        self.stalled = stalled
+        self.integer_mask = INTEGER_MASK.copy()
+        self.gear_sets = buildable_gear_sets(space) if buildable_gear_set else None
+        if self.gear_sets is not None and len(self.gear_sets) == 0:
+            raise ValueError("design_space: no buildable gear set (n_r, n_s) lies inside the bounds")
+
+    def predict(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """Predicted objectives (n, 11) in natural units and their standard deviation (None if unavailable)."""
+        X = np.asarray(X, dtype=float)
+        Y = self._checked(self.surrogate.predict(X), len(X), "predict")
+        return Y, self._std(X)
+
+    def _std(self, X: np.ndarray) -> np.ndarray | None:
+        """``predict_std(X)``, or ``predict(X, return_std=True)[1]``, or None when the surrogate has neither."""
+        if hasattr(self.surrogate, "predict_std"):
+            return self._checked(self.surrogate.predict_std(X), len(X), "predict_std")
+        if "return_std" in inspect.signature(self.surrogate.predict).parameters:
+            return self._checked(self.surrogate.predict(X, return_std=True)[1], len(X), "predict_std")
+        return None
+
+    def constraint(self, X: np.ndarray, Y: np.ndarray | None = None) -> np.ndarray:
+        """(n, n_ieq_constr) constraint values in ``constraint_names`` order; <= 0 is feasible. ``Y``: the
+        predicted objectives of ``X`` when already known (the speed-deviation constraint reads them)."""
+        X = np.asarray(X, dtype=float)
+        m = np.asarray(self.mass_kg(X), dtype=float).reshape(-1)
+        if m.shape != (len(X),) or not np.all(np.isfinite(m)):
+            raise ValueError(f"mass_kg: expected {len(X)} finite masses, got shape {m.shape}")
+        cols = [m / self.m_veh_max_kg - 1.0]
+        if self.speed_dev_max is not None:
+            if Y is None:
+                Y = self._checked(self.surrogate.predict(X), len(X), "predict")
+            cols.append(Y[:, OBJECTIVES.index("speed_dev")] / self.speed_dev_max - 1.0)
+        if "gen_below_motor" in self.constraint_names:
+            cols.append(X[:, DESIGN_VARS.index("p_gen_kw")] / X[:, DESIGN_VARS.index("p_mot_kw")] - 1.0 + 1e-9)
+        if self.stalled is not None:
+            st = np.asarray(self.stalled(X), dtype=bool).reshape(-1)
+            if st.shape != (len(X),):
+                raise ValueError(f"stalled: expected {len(X)} flags, got shape {st.shape}")
+            cols.append(np.where(st, 1.0, -1.0))
+        return np.column_stack(cols)
+
+    def _evaluate(self, x, out, *args, **kwargs):
+        Y = self._checked(self.surrogate.predict(x), len(x), "predict")
+        out["F"] = to_minimisation(Y)
+        out["G"] = self.constraint(x, Y)
+
+    @staticmethod
+    def _checked(Y, n: int, what: str) -> np.ndarray:
+        Y = np.asarray(Y, dtype=float)
+        if Y.shape != (n, len(OBJECTIVES)):
+            raise ValueError(f"surrogate.{what}: expected shape ({n}, {len(OBJECTIVES)}), got {Y.shape}")
+        if not np.all(np.isfinite(Y)):
+            k = int(np.argmax(~np.all(np.isfinite(Y), axis=0)))
+            raise ValueError(f"surrogate.{what}: {OBJECTIVES[k]} is not finite for some design")
+        return Y
+
+
+class IntegerRepair(Repair):
+    """Round the integer columns (``mask``) to whole numbers within the bounds; other columns untouched.
+    With ``gear_sets`` ((k, 2) buildable (n_r, n_s) pairs), snap the planetary set to the nearest one."""
+
+    def __init__(self, mask, gear_sets: np.ndarray | None = None):
+        super().__init__()
+        self.mask = np.asarray(mask, dtype=bool)
+        self.gear_sets = gear_sets
+
+    def _do(self, problem, X, **kwargs):
+        X = np.array(X, dtype=float)
+        lo, hi = np.ceil(problem.xl[self.mask]), np.floor(problem.xu[self.mask])
+        X[:, self.mask] = np.clip(np.round(X[:, self.mask]), lo, hi)
+        if self.gear_sets is not None and len(X):
+            j_r, j_s = DESIGN_VARS.index("n_r"), DESIGN_VARS.index("n_s")
+            X[:, j_r], X[:, j_s] = nearest_gear_set(X[:, j_r], X[:, j_s], self.gear_sets)
+        return X
+
+
+def _integer_repair(problem: Problem) -> IntegerRepair | None:
+    mask = getattr(problem, "integer_mask", None)
+    if mask is None or not np.any(mask):
+        return None
+    return IntegerRepair(mask, getattr(problem, "gear_sets", None))
+
+
+def _repaired(problem: Problem, X: np.ndarray) -> np.ndarray:
+    repair = _integer_repair(problem)
+    X = np.asarray(X, dtype=float)
+    return repair._do(problem, X) if repair is not None else X
+
+
+def _evaluate_base(problem: Problem, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(F, G)`` of ``problem`` at ``X``; ``G`` is (n, 0) for an unconstrained problem."""
+    if problem.n_ieq_constr == 0:
+        return np.asarray(problem.evaluate(X, return_values_of=["F"]), dtype=float), np.zeros((len(X), 0))
+    F, G = problem.evaluate(X, return_values_of=["F", "G"])
+    return np.asarray(F, dtype=float), np.asarray(G, dtype=float).reshape(len(X), -1)
+
+
+class _Reformulated(Problem):
+    """A view of ``base`` for the weighted-sum GA: objectives normalised by ``norm`` and, with
+    ``weights``, collapsed to a weighted sum; the base constraints pass through unchanged."""
+
+    def __init__(self, base: Problem, norm: Normalisation, *, weights: np.ndarray | None = None):
+        super().__init__(
+            n_var=base.n_var,
+            n_obj=base.n_obj if weights is None else 1,
+            n_ieq_constr=base.n_ieq_constr,
+            xl=base.xl,
+            xu=base.xu,
+        )
+        self.base, self.norm = base, norm
+        self.weights = None if weights is None else np.asarray(weights, dtype=float)
+        self.integer_mask = getattr(base, "integer_mask", None)
+        self.gear_sets = getattr(base, "gear_sets", None)
+
+    def _evaluate(self, x, out, *args, **kwargs):
+        F, G = _evaluate_base(self.base, x)
+        F = self.norm(F)
+        if self.weights is not None:
+            F = F @ self.weights[:, None]
+        if self.n_ieq_constr:
+            out["G"] = G
+        out["F"] = F
+
+
+class SimulatorModel:
+    """The simulator as the optimisers' model (the oracle): ``predict(X)`` simulates ``X`` on the sizing
+    cycle and returns the eleven objectives; ``stalled(X)`` the stall flags of the same run.
+
+    pymoo asks for objectives and constraints of one population in one call, so the last batch's
+    responses are kept (keyed by the exact bytes of ``X``) and ``stalled`` of the same designs costs no
+    second run. ``n_simulations`` counts every design simulated.
+    """
+
+    def __init__(self, simulate: Callable[[np.ndarray], pd.DataFrame]):
+        self.simulate = simulate
+        self.n_simulations = 0
+        self._key: bytes | None = None
+        self._last: pd.DataFrame | None = None
+
+    def responses(self, X: np.ndarray) -> pd.DataFrame:
+        X = np.ascontiguousarray(X, dtype=float)
+        key = X.tobytes() + bytes(str(X.shape), "ascii")
+        if key != self._key:
+            self._last = self.simulate(X).reset_index(drop=True)
+            self._key = key
+            self.n_simulations += len(X)
+        return self._last
+
+    def predict(self, X: np.ndarray) -> np.ndarray:
+        return self.responses(X)[list(OBJECTIVES)].to_numpy(dtype=float)
+
+    def stalled(self, X: np.ndarray) -> np.ndarray:
+        return self.responses(X)["stalled"].to_numpy(dtype=bool)
