@@ -37,6 +37,11 @@ from hevlib.params import AlgoParams, InfillParams
 from hevlib.pareto import nondominated_mask, objective_matrix, passes_screen, pick_diverse, to_minimisation
 
 ROUND = "round"
+#: Optimisers whose search an infill round resumes from the last population (``infill.n_gen``
+#: generations). pymoo's NSGA-III and GA, resumed from a given population, did not reproduce exactly from
+#: process to process (same inputs, different fronts), so their rounds restart from a seeded random
+#: population at the full budget; MOEA/D is our own deterministic loop.
+RESUMABLE = ("moead",)
 
 
 @dataclass(frozen=True)
@@ -239,7 +244,8 @@ def surrogate_assisted(
     for r in range(infill.rounds + 1):
         t0 = time.perf_counter()
         problem = make_problem(fit(X_train, Y_train))
-        round_settings = settings if r == 0 else settings.model_copy(update={"n_gen": infill.n_gen})
+        resume = r > 0 and algo in RESUMABLE
+        round_settings = settings.model_copy(update={"n_gen": infill.n_gen}) if resume else settings
         res = optimise_and_resimulate(
             problem,
             algo,
@@ -247,7 +253,7 @@ def surrogate_assisted(
             simulate,
             hv,
             progress,
-            initial=population,
+            initial=population if resume else None,
             n_candidates=infill.designs_per_round,
             criterion=infill.criterion,
         )
