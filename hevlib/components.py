@@ -35,6 +35,12 @@ RPM = np.pi / 30.0  # rad/s per rpm
 #: its generic engines, ``mc_inertia`` / ``gc_inertia`` 0.0226 kg m^2 of its Prius machines, and the
 #: 181 lb solid-cylinder wheel set of its wheel files at r = 0.282 m). Every shipped file has its own.
 DEFAULT_ENGINE_INERTIA_KG_M2 = 0.1
+#: ADVISOR's exhaust maps of spark-ignition engines: flow = fuel x (1 + stoichiometric A/F), temperature
+#: relative to the 20 C the engines were tested at (the engine files' thermal_model note)
+EXHAUST_AIR_FUEL_RATIO = 14.5
+EXHAUST_MAP_REFERENCE_C = 20.0
+#: ADVISOR's area exponent: areas follow engine power^0.67
+AREA_EXPONENT = 0.67
 DEFAULT_MACHINE_INERTIA_KG_M2 = 0.0226
 DEFAULT_WHEEL_INERTIA_KG_M2 = 3.264
 
@@ -280,7 +286,77 @@ class Accessory:
     mechanical_w: float
 
 
-_COMPONENT_TYPES = (EngineMap, MachineMap, BatteryModule, Body, Wheel, PowerSplit, Gearbox, Accessory)
+@dataclass(frozen=True)
+class EngineThermal:
+    """ADVISOR's four-node engine thermal model of one engine file (``thermal_model``), base engine."""
+
+    base_engine_mass_kg: float  # cylinder (20 %) and block (80 %) nodes
+    accessories_mass_kg: float  # exterior node
+    specific_heat_j_per_kg_k: float
+    hood_specific_heat_j_per_kg_k: float
+    exterior_area_m2: float
+    hood_area_m2: float
+    emissivity: float
+    hood_emissivity: float
+    cyl_to_block_w_per_k: float
+    block_to_exterior_w_per_k: float
+    exterior_to_hood_w_per_k: float
+    thermostat_c: float
+    exhaust_share_min_speed: float  # share of the waste heat the exhaust carries at the lowest map speed
+    exhaust_share_max_speed: float  # ... and at the highest
+    air_fuel_ratio: float  # exhaust flow = fuel x (1 + A/F)
+    map_reference_c: float  # temperature the exhaust maps refer to
+    has_cold_maps: bool
+
+
+@dataclass(frozen=True)
+class Catalyst:
+    """ADVISOR's ``EX_SI`` three-way catalyst: conversion vs monolith temperature, breakthrough limits,
+    the exhaust system's mass and area rules (per kW of engine power) and its thermal data."""
+
+    temperature_c: np.ndarray
+    conversion_hc: np.ndarray
+    conversion_co: np.ndarray
+    conversion_nox: np.ndarray
+    breakthrough_hc_g_s: float
+    breakthrough_co_g_s: float
+    breakthrough_nox_g_s: float
+    exhaust_kg_per_kw: float
+    monolith_share: float  # of the exhaust system mass
+    shell_share: float
+    pipe_share: float
+    shield_share: float
+    manifold_share: float
+    monolith_cp_j_per_kg_k: float
+    steel_cp_j_per_kg_k: float
+    gas_cp_j_per_g_k: float
+    monolith_area_coef_m2: float  # outer area = coef x (p_eng / 100 kW)^exp
+    monolith_area_exp: float
+    manifold_area_m2_per_kw: float
+    emissivity_monolith_pipe: float
+    emissivity_shell_shield: float
+    emissivity_pipe: float
+    emissivity_shield: float
+    emissivity_manifold: float
+    monolith_shell_temperature_c: np.ndarray
+    monolith_shell_w_per_k: np.ndarray
+    shell_shield_w_per_k: float
+    shell_pipe_w_per_k: float
+    pipe_shield_w_per_k: float
+
+
+_COMPONENT_TYPES = (
+    EngineMap,
+    MachineMap,
+    BatteryModule,
+    Body,
+    Wheel,
+    PowerSplit,
+    Gearbox,
+    Accessory,
+    EngineThermal,
+    Catalyst,
+)
 
 
 def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
@@ -310,6 +386,9 @@ class ComponentLibrary:
     accessory_hybrid: Accessory
     accessory_conventional: Accessory
     exhaust_kg_per_kw: float
+    thermal_hybrid: EngineThermal
+    thermal_conventional: EngineThermal
+    catalyst: Catalyst
     conventional_idle_rad_s: float
     conventional_launch_rad_s: float
     meta: dict = field(default_factory=dict, compare=False)
@@ -474,6 +553,85 @@ def load_engine(path: Path, notes: list[str] | None = None) -> EngineMap:
         lhv_j_per_g=float(fuel_props["lower_heating_value_j_per_g"]),
         fuel_density_g_per_l=float(fuel_props["density_g_per_l"]),
         closed_throttle_torque_nm=_ro(d.get("closed_throttle_torque_nm", np.zeros(len(speed)))),
+    )
+
+
+def load_engine_thermal(path: Path) -> EngineThermal:
+    """The engine file's ``thermal_model`` (ADVISOR ``fc_*`` thermal data) and its mass split.
+
+    Exhaust gas: ADVISOR's maps are flow = fuel x (1 + 14.5) and temperature = exhaust share x waste heat /
+    (flow x 1.089 J/(g K)) + 20 C; the kernels use the same relations on the (scaled, extended) fuel map, so
+    the stored maps only serve as a check (``tests/test_thermal.py``).
+    """
+    d = _read_yaml(path)
+    th = _need(d, "thermal_model", path)
+    mass = _need(d, "mass_model", path)
+    lo, hi = (float(x) for x in _need(th, "exhaust_share_of_waste_heat_at_min_and_max_speed", path))
+    return EngineThermal(
+        base_engine_mass_kg=float(mass["base_engine_mass_kg"]),
+        accessories_mass_kg=float(mass["accessories_mass_kg"]),
+        specific_heat_j_per_kg_k=float(_need(th, "engine_specific_heat_j_per_kg_k", path)),
+        hood_specific_heat_j_per_kg_k=float(_need(th, "hood_compartment_specific_heat_j_per_kg_k", path)),
+        exterior_area_m2=float(_need(th, "engine_exterior_surface_area_m2", path)),
+        hood_area_m2=float(_need(th, "hood_surface_area_m2", path)),
+        emissivity=float(_need(th, "engine_surface_emissivity", path)),
+        hood_emissivity=float(_need(th, "hood_exterior_emissivity", path)),
+        cyl_to_block_w_per_k=float(_need(th, "cylinder_to_interior_conductance_w_per_k", path)),
+        block_to_exterior_w_per_k=float(_need(th, "interior_to_exterior_conductance_w_per_k", path)),
+        exterior_to_hood_w_per_k=float(_need(th, "engine_to_compartment_conductance_w_per_k", path)),
+        thermostat_c=float(_need(th, "thermostat_temperature_c", path)),
+        exhaust_share_min_speed=lo,
+        exhaust_share_max_speed=hi,
+        air_fuel_ratio=EXHAUST_AIR_FUEL_RATIO,
+        map_reference_c=EXHAUST_MAP_REFERENCE_C,
+        has_cold_maps=bool(d.get("has_cold_start_maps", False)),
+    )
+
+
+def load_catalyst(path: Path) -> Catalyst:
+    """``EX_SI``: conversion table, breakthrough limits, mass/area rules and thermal data."""
+    d = _read_yaml(path)
+    conv = _need(d, "conversion_efficiency", path)
+    rule = _need(d, "mass_rule", path)
+    shares = rule["shares_of_catalyst_mass"]
+    cat = float(rule["catalyst_share_of_exhaust_mass"])
+    th = _need(d, "thermal", path)
+    eps = th["emissivity"]
+    lim = [float(x) for x in _need(d, "breakthrough_limit_g_per_s", path)["values_hc_co_nox_pm"]]
+    # the area rules as evaluated for the Prius engine: monolith 0.1 (p / 100)^0.67, manifold (p / 600) (0.3 + 0.7)
+    ev = _need(d, "evaluated_with_FC_PRIUS_JPN", path)
+    p_ev = float(ev["engine_peak_power_kw"])
+    t = np.array(_need(d, "catalyst_temperature_axis_c", path), dtype=float)
+    return Catalyst(
+        temperature_c=_ro(t),
+        conversion_hc=_ro(np.array(conv["hc"], dtype=float)),
+        conversion_co=_ro(np.array(conv["co"], dtype=float)),
+        conversion_nox=_ro(np.array(conv["nox"], dtype=float)),
+        breakthrough_hc_g_s=lim[0],
+        breakthrough_co_g_s=lim[1],
+        breakthrough_nox_g_s=lim[2],
+        exhaust_kg_per_kw=float(rule["exhaust_system_kg_per_engine_kw"]),
+        monolith_share=cat * float(shares["monolith"]),
+        shell_share=cat * float(shares["inner_shell"]),
+        pipe_share=cat * float(shares["pipes"]),
+        shield_share=cat * float(shares["outer_shell"]),
+        manifold_share=float(rule["manifold_share_of_exhaust_mass"]),
+        monolith_cp_j_per_kg_k=float(th["monolith_specific_heat_j_per_kg_k"]),
+        steel_cp_j_per_kg_k=float(th["inner_shell_specific_heat_j_per_kg_k"]),
+        gas_cp_j_per_g_k=float(th["exhaust_gas_specific_heat_j_per_kg_k"]) / 1000.0,
+        monolith_area_coef_m2=float(ev["monolith_outer_area_m2"]) / (p_ev / 100.0) ** AREA_EXPONENT,
+        monolith_area_exp=AREA_EXPONENT,
+        manifold_area_m2_per_kw=float(ev["manifold_area_m2"]) / p_ev,
+        emissivity_monolith_pipe=float(eps["monolith_to_pipes"]),
+        emissivity_shell_shield=float(eps["interior_to_shield"]),
+        emissivity_pipe=float(eps["pipe"]),
+        emissivity_shield=float(eps["shield"]),
+        emissivity_manifold=float(eps["manifold"]),
+        monolith_shell_temperature_c=_ro(np.array(th["monolith_to_interior_conductance_temperature_c"], dtype=float)),
+        monolith_shell_w_per_k=_ro(np.array(th["monolith_to_interior_conductance_w_per_k"], dtype=float)),
+        shell_shield_w_per_k=float(th["interior_to_shield_conductance_w_per_k"]),
+        shell_pipe_w_per_k=float(th["interior_to_pipe_conductance_w_per_k"]),
+        pipe_shield_w_per_k=float(th["pipe_to_shield_conductance_w_per_k"]),
     )
 
 
@@ -747,6 +905,9 @@ def load_library(
         accessory_hybrid=_accessory(acc_h),
         accessory_conventional=_accessory(acc_c),
         exhaust_kg_per_kw=float(ex["mass_rule"]["exhaust_system_kg_per_engine_kw"]),
+        thermal_hybrid=load_engine_thermal(raw / "FC_PRIUS_JPN.yaml"),
+        thermal_conventional=load_engine_thermal(raw / "FC_SI63_emis.yaml"),
+        catalyst=load_catalyst(raw / "EX_SI.yaml"),
         conventional_idle_rad_s=idle,
         conventional_launch_rad_s=max(engine_conventional.max_speed_rad_s / 5.0, 1.5 * idle),
         meta={"raw_dir": str(raw), "battery_file": battery_file, "normalisation": notes},

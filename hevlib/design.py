@@ -50,6 +50,10 @@ EXTRA_RESPONSES: tuple[str, ...] = (
     "speed_err_mean_kmh",
     "stalled",
     "accessory_unmet_kwh",
+    "hc_engine_out",
+    "co_engine_out",
+    "nox_engine_out",
+    "t_cat_light_off_s",
 )
 RESPONSES: tuple[str, ...] = OBJECTIVES + EXTRA_RESPONSES
 #: Responses that are flags (bool columns); every other response is a float.

@@ -10,7 +10,9 @@ field also carries its unit as Arrow field metadata ``unit``):
   [L/100 km], ``accel_dev`` [%], ``hc``, ``co``, ``nox`` [g/km], ``e_l`` [km], ``speed_dev`` [-] (share of
   the cycle off the trace), ``diff_soc`` [-], ``v_max`` [km/h], ``f_max`` [m/s^2], ``fc_soc_corrected``
   [L/100 km], ``eta_drivetrain`` [-], ``t_0_100_s`` [s], ``cycle_met`` (bool), ``speed_err_mean_kmh``
-  [km/h], ``stalled`` (bool), ``accessory_unmet_kwh`` [kWh];
+  [km/h], ``stalled`` (bool), ``accessory_unmet_kwh`` [kWh], ``hc_engine_out``, ``co_engine_out``,
+  ``nox_engine_out`` [g/km] (``hc``, ``co``, ``nox`` are tailpipe unless ``sim.emissions: engine_out``),
+  ``t_cat_light_off_s`` [s];
 * ``source`` (string): ``l27``, ``lhs`` or ``heldout``.
 
 Run metadata lives in the Parquet schema metadata (keys ``hev.*``, see :func:`run_metadata`): the cycle
@@ -63,6 +65,10 @@ UNITS: dict[str, str] = {
     "speed_err_mean_kmh": "km/h",
     "stalled": "bool",
     "accessory_unmet_kwh": "kWh",
+    "hc_engine_out": "g/km",
+    "co_engine_out": "g/km",
+    "nox_engine_out": "g/km",
+    "t_cat_light_off_s": "s",
     "source": "-",
 }
 

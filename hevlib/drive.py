@@ -19,6 +19,7 @@ from hevlib.control import PmsConfig, supervise
 from hevlib.powertrain import conventional as conv
 from hevlib.powertrain import hybrid as split
 from hevlib.powertrain import layout as L  # O_*, T_* column indices (compile-time constants)
+from hevlib.powertrain import thermal as th_
 from hevlib.powertrain.battery import current_for_power, power_limits
 from hevlib.powertrain.engine import EngineArrays, max_torque, rates
 from hevlib.powertrain.lookup import cell
@@ -202,6 +203,22 @@ def _book_engine(o, fuel, hc, co, nox, p_shaft, lhv_j_per_g, dt):
 
 
 @njit(cache=True, inline="always")
+def _exhaust(o, temp, k, X, key, fuel, q_waste, w_e, hc, co, nox, v_avg, dt, t, tr, record):
+    """Thermal nodes and tailpipe emissions of one step (and their trace channels)."""
+    tp_hc, tp_co, tp_nox = th_.thermal_step(temp, k, X, key, fuel, q_waste, w_e, hc, co, nox, v_avg, dt, o)
+    th_.check_light_off(temp, X, (t + 1) * dt, o)
+    if record:
+        tr[t + 1, L.T_T_COOLANT] = temp[th_.N_BLOCK]
+        tr[t + 1, L.T_T_CAT] = temp[th_.N_MON]
+        tr[t + 1, L.T_HC_EO] = hc
+        tr[t + 1, L.T_CO_EO] = co
+        tr[t + 1, L.T_NOX_EO] = nox
+        tr[t + 1, L.T_HC_TP] = tp_hc
+        tr[t + 1, L.T_CO_TP] = tp_co
+        tr[t + 1, L.T_NOX_TP] = tp_nox
+
+
+@njit(cache=True, inline="always")
 def _book_wheel(o, f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch):
     """Work at the wheels (driveline, friction brakes) against road loads, grade and inertia; for a
     force-limited step also the residual of its speed fixed point."""
@@ -308,6 +325,8 @@ def _hybrid_one(
     sin_g,
     cos_g,
     key_on,
+    X: th_.ThermalConfig,
+    t_init,
     o,
     tr,
     record: bool,
@@ -323,6 +342,7 @@ def _hybrid_one(
     eng_on, t_state = False, 1e9
     soc_lo, soc_hi = soc, soc
     n = v_ref.shape[0]
+    k_th, temp = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]
@@ -348,6 +368,7 @@ def _hybrid_one(
             # prescribed key-off (e.g. the FTP soak): nothing runs, no accessory load
             eng_on = False
             _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.off_trace_mps)
+            _exhaust(o, temp, k_th, X, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, t, tr, record)
             t_state += dt
             if record:
                 tr[t + 1, L.T_SOC] = soc
@@ -400,12 +421,16 @@ def _hybrid_one(
         fuel = hc = co = nox = 0.0
         if st.running:
             fuel, hc, co, nox = rates(st.w_e, st.t_e, d.s_eng, E)
+            c_f, c_hc, c_co, c_nox = th_.cold_factors(temp[th_.N_BLOCK], X)
+            fuel, hc, co, nox = fuel * c_f, hc * c_hc, co * c_co, nox * c_nox
             o[L.O_ENG_ON_STEPS] += 1.0
         elif st.w_e > 0.0:
             o[L.O_ENG_SPUN_STEPS] += 1.0  # spun by the gear set with its fuel cut
         p_shaft = st.t_e * st.w_e
         # ---- energy accounting (J)
         _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, dt)
+        q_waste = fuel * c.lhv_j_per_g - p_shaft
+        _exhaust(o, temp, k_th, X, True, fuel, q_waste, st.w_e, hc, co, nox, v_avg, dt, t, tr, record)
         o[L.O_E_BATT] += p_chem * dt
         o[L.O_E_LOSS_BATT] += (p_chem - st.p_batt) * dt
         o[L.O_E_LOSS_MOT] += (st.p_m_e - st.t_m * st.w_r) * dt
@@ -466,10 +491,13 @@ def _hybrid_one(
     o[L.O_SOC_MIN_SEEN] = soc_lo
     o[L.O_SOC_MAX_SEEN] = soc_hi
     o[L.O_E_KIN_END] = 0.5 * ch.m_eff * v * v
+    th_.finish(temp, k_th, (n - 1) * dt, o)
     if record:
         tr[0, L.T_V_REF] = v_ref[0]
         tr[0, L.T_SOC] = c.soc_init
         tr[0, L.T_GRADE] = grade[0]
+        tr[0, L.T_T_COOLANT] = t_init[th_.N_BLOCK]
+        tr[0, L.T_T_CAT] = t_init[th_.N_MON]
 
 
 @njit(cache=True, parallel=True)
@@ -487,6 +515,8 @@ def drive_hybrid(
     sin_g,
     cos_g,
     key_on,
+    X: th_.ThermalConfig,
+    t_init,
     out,
     traces,
     rec_index,
@@ -495,7 +525,7 @@ def drive_hybrid(
     for i in prange(rows.shape[0]):
         j = rec_index[i]
         tr = traces[max(j, 0)]
-        _hybrid_one(rows[i], c, th, pc, E, M, G, B, v_ref, grade, sin_g, cos_g, key_on, out[i], tr, j >= 0)
+        _hybrid_one(rows[i], c, th, pc, E, M, G, B, v_ref, grade, sin_g, cos_g, key_on, X, t_init, out[i], tr, j >= 0)
 
 
 @njit(cache=True)
@@ -511,6 +541,8 @@ def _conventional_one(
     sin_g,
     cos_g,
     key_on,
+    X: th_.ThermalConfig,
+    t_init,
     o,
     tr,
     record: bool,
@@ -522,6 +554,7 @@ def _conventional_one(
     v_lim = d.w_e_max * d.r / ratios[-1]
     v = 0.0
     n = v_ref.shape[0]
+    k_th, temp = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]
@@ -530,6 +563,7 @@ def _conventional_one(
         stationary = v0 <= 1e-9 and v_tgt <= 1e-9
         if stationary and not key_on[t]:
             _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.off_trace_mps)
+            _exhaust(o, temp, k_th, X, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, t, tr, record)
             if record:
                 tr[t + 1, L.T_GRADE] = gr
             continue
@@ -577,8 +611,12 @@ def _conventional_one(
             f_brake = f_req - st.f_del
         v_next = max(2.0 * v_avg - v0, 0.0)
         fuel, hc, co, nox = rates(st.w_e, max(st.t_e, 0.0), d.s_eng, E)
+        c_f, c_hc, c_co, c_nox = th_.cold_factors(temp[th_.N_BLOCK], X)
+        fuel, hc, co, nox = fuel * c_f, hc * c_hc, co * c_co, nox * c_nox
         p_shaft = st.t_e * st.w_e
         _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, dt)
+        q_waste = fuel * c.lhv_j_per_g - p_shaft
+        _exhaust(o, temp, k_th, X, True, fuel, q_waste, st.w_e, hc, co, nox, v_avg, dt, t, tr, record)
         o[L.O_E_ACC] += d.p_acc_w * dt
         o[L.O_E_LOSS_GB] += st.loss_gb_w * dt
         o[L.O_E_LOSS_CLUTCH] += st.loss_clutch_w * dt
@@ -607,9 +645,12 @@ def _conventional_one(
     o[L.O_SOC_MIN_SEEN] = c.soc_init
     o[L.O_SOC_MAX_SEEN] = c.soc_init
     o[L.O_E_KIN_END] = 0.5 * m_prev * v * v
+    th_.finish(temp, k_th, (n - 1) * dt, o)
     if record:
         tr[0, L.T_V_REF] = v_ref[0]
         tr[0, L.T_GRADE] = grade[0]
+        tr[0, L.T_T_COOLANT] = t_init[th_.N_BLOCK]
+        tr[0, L.T_T_CAT] = t_init[th_.N_MON]
 
 
 @njit(cache=True)
@@ -625,6 +666,8 @@ def drive_conventional(
     sin_g,
     cos_g,
     key_on,
+    X: th_.ThermalConfig,
+    t_init,
     out,
     traces,
     rec_index,
@@ -632,5 +675,20 @@ def drive_conventional(
     for i in range(rows.shape[0]):
         j = rec_index[i]
         _conventional_one(
-            rows[i], c, ratios, upshift_kmh, d, E, v_ref, grade, sin_g, cos_g, key_on, out[i], traces[max(j, 0)], j >= 0
+            rows[i],
+            c,
+            ratios,
+            upshift_kmh,
+            d,
+            E,
+            v_ref,
+            grade,
+            sin_g,
+            cos_g,
+            key_on,
+            X,
+            t_init,
+            out[i],
+            traces[max(j, 0)],
+            j >= 0,
         )

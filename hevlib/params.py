@@ -121,6 +121,10 @@ class SimParams(_Strict):
     cycle_met_tolerance_kmh: Annotated[float, Field(gt=0, le=50)] = 3.2
     stall_time_s: Annotated[float, Field(gt=0, le=3600)] = 10.0  # stood still this long while asked to move
     min_distance_share: Annotated[float, Field(gt=0, le=1)] = 0.1  # per-km figures below: failure ceiling
+    ambient_c: Annotated[float, Field(ge=-40, le=50)] = 20.0  # air, and every thermal node at a cold start
+    emissions: Literal["tailpipe", "engine_out"] = "tailpipe"  # what the hc, co, nox objectives are
+    start: dict[str, Literal["cold", "hot"]] = {}  # thermal start state per cycle name (absent: cold)
+    cold_correction: Literal["none", "advisor"] = "advisor"  # cold-engine fuel/emission factors (no cold maps)
 
     @model_validator(mode="after")
     def _window(self):
@@ -358,6 +362,13 @@ class Params(_Strict):
     validation: ValidateParams = Field(ValidateParams(), alias="validate")
 
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True, strict=True)
+
+    @model_validator(mode="after")
+    def _start_states_name_cycles(self):
+        for name in self.sim.start:
+            if name not in self.cycles.cycles:
+                raise ValueError(f"sim.start.{name}: not one of cycles.cycles")
+        return self
 
 
 def _format_error(err: ValidationError, source: str = "params.yaml") -> str:

@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 
 from hevlib import MODEL_VERSION
-from hevlib.components import ComponentLibrary, EngineMap, MachineMap, best_efficiency_line
+from hevlib.components import Catalyst, ComponentLibrary, EngineMap, EngineThermal, MachineMap, best_efficiency_line
 from hevlib.control import PmsConfig, thresholds
 from hevlib.cycles import Cycle
 from hevlib.design import BOOL_RESPONSES, DESIGN_VARS, OBJECTIVES, RESPONSES, design_vector
@@ -32,9 +32,10 @@ from hevlib.params import Params
 from hevlib.performance import performance_batch
 from hevlib.powertrain.conventional import ConvDesign
 from hevlib.powertrain.engine import EngineArrays
-from hevlib.powertrain.layout import BALANCE_SINKS, N_O, N_T, OUT_NAMES, TRACE_NAMES
+from hevlib.powertrain.layout import BALANCE_SINKS, N_O, N_T, OUT_NAMES, THERMAL_SINKS, THERMAL_SOURCES, TRACE_NAMES
 from hevlib.powertrain.lookup import resample, uniform_axis
 from hevlib.powertrain.machines import MachineArrays
+from hevlib.powertrain.thermal import ThermalConfig, cold_factors, start_temperatures
 from hevlib.powertrain.vehicle import grade_trig
 from hevlib.scaling import conventional_chassis_kg, hybrid_masses
 
@@ -46,6 +47,8 @@ VEHICLES: tuple[str, ...] = ("hybrid", "prius", "conventional")
 MIN_DISTANCE_SHARE = 0.01
 #: Unmet accessory energy (kWh) above which a run does not count as having met the cycle (round-off only).
 UNMET_TOL_KWH = 1e-9
+#: HC conversion that marks the catalyst's light-off (``t_cat_light_off_s``).
+LIGHT_OFF_HC_CONVERSION = 0.5
 
 
 def engine_arrays(engine: EngineMap) -> EngineArrays:
@@ -74,6 +77,67 @@ def engine_arrays(engine: EngineMap) -> EngineArrays:
         f(w, float),
         f(t, float),
         f(resample(engine.speed_rad_s, None, engine.closed_throttle_torque_nm, gw)),
+    )
+
+
+def thermal_config(
+    engine: EngineMap, th: EngineThermal, cat: Catalyst, glider_kg: float, amb_c: float, cold_correction: bool
+) -> ThermalConfig:
+    """The engine's and the catalyst's thermal data as the kernels read them (ADVISOR's rules)."""
+    return ThermalConfig(
+        amb_c=float(amb_c),
+        p_base_kw=engine.peak_power_kw,
+        m_base_kg=th.base_engine_mass_kg,
+        m_acc_kg=th.accessories_mass_kg,
+        m_hood_kg=0.1 * glider_kg,
+        cp_eng=th.specific_heat_j_per_kg_k,
+        cp_hood=th.hood_specific_heat_j_per_kg_k,
+        a_ext_m2=th.exterior_area_m2,
+        a_hood_m2=th.hood_area_m2,
+        eps_eng=th.emissivity,
+        eps_hood=th.hood_emissivity,
+        g_c2i=th.cyl_to_block_w_per_k,
+        g_i2x=th.block_to_exterior_w_per_k,
+        g_h2x=th.exterior_to_hood_w_per_k,
+        t_stat_c=th.thermostat_c,
+        ex_frac_lo=th.exhaust_share_min_speed,
+        ex_frac_hi=th.exhaust_share_max_speed,
+        w_lo=engine.min_speed_rad_s,
+        w_hi=engine.max_speed_rad_s,
+        afr=th.air_fuel_ratio,
+        cp_gas=cat.gas_cp_j_per_g_k,
+        t_map_c=th.map_reference_c,
+        ex_kg_per_kw=cat.exhaust_kg_per_kw,
+        m_mon_share=cat.monolith_share,
+        m_shell_share=cat.shell_share,
+        m_pipe_share=cat.pipe_share,
+        m_shield_share=cat.shield_share,
+        m_man_share=cat.manifold_share,
+        cp_mon=cat.monolith_cp_j_per_kg_k,
+        cp_steel=cat.steel_cp_j_per_kg_k,
+        a_mon_coef=cat.monolith_area_coef_m2,
+        a_mon_exp=cat.monolith_area_exp,
+        a_man_m2_per_kw=cat.manifold_area_m2_per_kw,
+        eps_m2p=cat.emissivity_monolith_pipe,
+        eps_i2x=cat.emissivity_shell_shield,
+        eps_pipe=cat.emissivity_pipe,
+        eps_shield=cat.emissivity_shield,
+        eps_man=cat.emissivity_manifold,
+        g_shell2shield=cat.shell_shield_w_per_k,
+        g_shell2pipe=cat.shell_pipe_w_per_k,
+        g_pipe2shield=cat.pipe_shield_w_per_k,
+        m2i_t_c=np.ascontiguousarray(cat.monolith_shell_temperature_c, float),
+        m2i_g=np.ascontiguousarray(cat.monolith_shell_w_per_k, float),
+        conv_t_c=np.ascontiguousarray(cat.temperature_c, float),
+        conv_hc=np.ascontiguousarray(cat.conversion_hc, float),
+        conv_co=np.ascontiguousarray(cat.conversion_co, float),
+        conv_nox=np.ascontiguousarray(cat.conversion_nox, float),
+        lim_hc=cat.breakthrough_hc_g_s,
+        lim_co=cat.breakthrough_co_g_s,
+        lim_nox=cat.breakthrough_nox_g_s,
+        light_off_eff=LIGHT_OFF_HC_CONVERSION,
+        fuel_max_g_s=float(np.max(engine.fuel_g_s)),
+        cold_correction=bool(cold_correction),
     )
 
 
@@ -154,6 +218,23 @@ class Simulator:
                 lib.engine_conventional,
             ),
         }
+        amb, cold = sim.ambient_c, sim.cold_correction == "advisor"
+        self._thermal = {
+            "hybrid": thermal_config(
+                lib.engine_hybrid, lib.thermal_hybrid, lib.catalyst, lib.body_conventional.glider_mass_kg, amb, cold
+            ),
+            "prius": thermal_config(
+                lib.engine_hybrid, lib.thermal_hybrid, lib.catalyst, lib.body_prius.glider_mass_kg, amb, cold
+            ),
+            "conventional": thermal_config(
+                lib.engine_conventional,
+                lib.thermal_conventional,
+                lib.catalyst,
+                lib.body_conventional.glider_mass_kg,
+                amb,
+                cold,
+            ),
+        }
         gb = lib.gearbox.loss_coefficients
         e = lib.engine_conventional
         self._conv = ConvDesign(
@@ -226,8 +307,8 @@ class Simulator:
         """
         sim = self.params.sim
         ceil = self._failure_ceilings(cycle)
-        for key in ("fc", "hc", "co", "nox"):
-            r.loc[failed, key] = np.maximum(r.loc[failed, key].to_numpy(), ceil[key])
+        for key in ("fc", "hc", "co", "nox", "hc_engine_out", "co_engine_out", "nox_engine_out"):
+            r.loc[failed, key] = np.maximum(r.loc[failed, key].to_numpy(), ceil[key.removesuffix("_engine_out")])
         r.loc[failed, "fc_soc_corrected"] = np.maximum(r.loc[failed, "fc_soc_corrected"].to_numpy(), ceil["fc"])
         r.loc[failed, "diff_soc"] = np.maximum(r.loc[failed, "diff_soc"].to_numpy(), sim.soc_init - sim.soc_min)
         r.loc[failed, "speed_dev"] = 1.0
@@ -255,9 +336,11 @@ class Simulator:
             ),
         )
         km = sim.min_distance_share * cycle.distance_m / 1e3
+        # a cold engine burns and emits more (ADVISOR's cold factors, largest at ambient or below)
+        cold = dict(zip(("fc", "hc", "co", "nox"), cold_factors(-1e9, self._thermal["hybrid"]), strict=True))
         out = {}
         for key, rate in (("fc", "fuel_g_s"), ("hc", "hc_g_s"), ("co", "co_g_s"), ("nox", "nox_g_s")):
-            grams = max(float(np.max(getattr(e, rate))) * s for e, s in engines) * cycle.duration_s
+            grams = max(float(np.max(getattr(e, rate))) * s for e, s in engines) * cycle.duration_s * cold[key]
             out[key] = grams / km if key != "fc" else 100.0 * grams / lib.engine_hybrid.fuel_density_g_per_l / km
         return out
 
@@ -322,6 +405,8 @@ class Simulator:
         grade = np.ascontiguousarray(cycle.grade, float)
         sin_g, cos_g = grade_trig(grade)
         key_on = np.ascontiguousarray(cycle.key_on, bool)
+        X_th = self._thermal[vehicle]
+        t_init = self.start_temperatures(cycle, vehicle)
         if vehicle == "conventional":
             drive_conventional(
                 rows,
@@ -335,6 +420,8 @@ class Simulator:
                 sin_g,
                 cos_g,
                 key_on,
+                X_th,
+                t_init,
                 out,
                 traces,
                 rec,
@@ -354,12 +441,31 @@ class Simulator:
                 sin_g,
                 cos_g,
                 key_on,
+                X_th,
+                t_init,
                 out,
                 traces,
                 rec,
             )
         perf = self.performance_rows(rows, vehicle) if performance else np.full((n, 3), np.nan)
         return RunOutput(out, perf, rows[:, 7].copy(), traces if record else None)
+
+    def start_state(self, cycle: Cycle) -> str:
+        """``cold`` or ``hot``: the thermal start of ``cycle`` (params ``sim.start``; cold if not listed)."""
+        return self.params.sim.start.get(cycle.name, "cold")
+
+    def start_temperatures(self, cycle: Cycle, vehicle: Vehicle) -> np.ndarray:
+        """The nine thermal nodes' start temperatures of ``vehicle`` on ``cycle``, degC."""
+        th = self.lib.thermal_conventional if vehicle == "conventional" else self.lib.thermal_hybrid
+        return start_temperatures(self.start_state(cycle), self.params.sim.ambient_c, th.thermostat_c)
+
+    def light_off_temperature_c(self) -> float:
+        """Monolith temperature (degC) at which the catalyst first converts ``LIGHT_OFF_HC_CONVERSION`` of
+        the HC (linear in the ``EX_SI`` table, as the kernels read it)."""
+        cat = self.lib.catalyst
+        t, eff = cat.temperature_c, cat.conversion_hc
+        i = int(np.argmax(eff >= LIGHT_OFF_HC_CONVERSION))
+        return float(t[i - 1] + (LIGHT_OFF_HC_CONVERSION - eff[i - 1]) / (eff[i] - eff[i - 1]) * (t[i] - t[i - 1]))
 
     def performance_rows(self, rows: np.ndarray, vehicle: Vehicle) -> np.ndarray:
         sim = self.params.sim
@@ -441,15 +547,14 @@ class Simulator:
         acc_req = o["acc_req_sum_mps2"].to_numpy()
         in_energy = e_fuel + e_batt
         stalled = o["stuck_max_s"].to_numpy() > sim.stall_time_s
+        src = "_tailpipe" if sim.emissions == "tailpipe" else ""  # the hc, co, nox objectives
         unmet_kwh = o["e_acc_unmet_j"].to_numpy() / 3.6e6
         r = pd.DataFrame(
             {
                 "m_veh": res.mass_kg,
                 "fc": 100.0 * fuel_l / dist_km,
                 "accel_dev": 100.0 * o["acc_short_sum_mps2"].to_numpy() / np.where(acc_req > 0, acc_req, 1.0),
-                "hc": o["hc_g"].to_numpy() / dist_km,
-                "co": o["co_g"].to_numpy() / dist_km,
-                "nox": o["nox_g"].to_numpy() / dist_km,
+                **{k: o[f"{k}{src}_g"].to_numpy() / dist_km for k in ("hc", "co", "nox")},
                 "e_l": np.maximum(o["dist_ref_m"].to_numpy() - o["dist_m"].to_numpy(), 0.0) / 1e3,
                 # share of the cycle's duration off the trace by more than the tolerance (ADVISOR's 2 mph)
                 "speed_dev": o["off_trace_s"].to_numpy() / cycle.duration_s,
@@ -472,6 +577,8 @@ class Simulator:
                 / np.maximum(o["n_steps"].to_numpy(), 1.0),
                 "stalled": stalled,
                 "accessory_unmet_kwh": unmet_kwh,
+                **{f"{k}_engine_out": o[f"{k}_g"].to_numpy() / dist_km for k in ("hc", "co", "nox")},
+                "t_cat_light_off_s": o["t_cat_light_off_s"].to_numpy(),
             }
         )
         failed = stalled | (o["dist_m"].to_numpy() < sim.min_distance_share * cycle.distance_m)
@@ -514,6 +621,11 @@ def energy_balance(res: RunOutput) -> pd.DataFrame:
     out["residual_j"] = sources - sinks
     out["residual_share"] = out["residual_j"].abs() / scale
     out["mismatch_share"] = o["e_mismatch_j"].abs() / scale
+    # heat balance of the thermal nodes: stored heat change = heat in (combustion, exhaust, reaction) - heat out
+    stored = o["u_thermal_end_j"] - o["u_thermal_start_j"]
+    heat_in = o[list(THERMAL_SOURCES)].sum(axis=1)
+    out["thermal_residual_j"] = stored - heat_in + o[list(THERMAL_SINKS)].sum(axis=1)
+    out["thermal_residual_share"] = out["thermal_residual_j"].abs() / heat_in.clip(lower=1.0)
     return out
 
 

@@ -252,6 +252,21 @@ def traces(
     return out
 
 
+#: FTP bag 1 (the cold-start phase), s: the catalyst plot's window on a cycle with a key-off soak.
+FTP_BAG1_S = 505.0
+
+
+def cold_start_window_s(sim, cycle: Cycle, traces: dict[str, pd.DataFrame] | None) -> float | None:
+    """Seconds of ``cycle`` the catalyst warm-up plot shows: FTP's bag 1 (505 s, before its key-off soak)
+    or the whole cycle; None when the cycle does not start cold or the traces carry no temperatures."""
+    if not traces or "t_cat_c" not in next(iter(traces.values())):
+        return None
+    if getattr(sim, "start_state", lambda c: "cold")(cycle) != "cold":
+        return None
+    off = np.flatnonzero(~cycle.key_on[1:])
+    return FTP_BAG1_S if len(off) and cycle.time_s[1:][off[0]] > FTP_BAG1_S else float(cycle.duration_s)
+
+
 def summarise(table: pd.DataFrame, algos: Sequence[str], cycles: Sequence[str], p_conv_kw: float) -> dict:
     """``reports/validation.json``: headline (first cycle) improvement table, counts, engine downsizing,
     baseline and mean-pick responses, and the same improvement table for every other cycle."""

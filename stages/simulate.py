@@ -14,6 +14,9 @@ from hevlib.simulate import VEHICLES, with_inputs
 from stages.cli import app
 from stages.common import PARAMS_OPTION, cycle_named, params_from, simulator, stage
 
+#: Designs ``--trace`` records at most (a trace is one row per step and design).
+MAX_TRACED = 50
+
 
 @app.command("simulate")
 @stage
@@ -23,6 +26,12 @@ def simulate(
     grade: float = typer.Option(None, "--grade", help="road grade in percent; overrides the cycle's own grade"),
     vehicle: str = typer.Option("hybrid", "--vehicle", help="hybrid | conventional | prius"),
     out: Path = typer.Option(..., "--out", help="output table (.csv or .parquet)"),
+    trace: Path = typer.Option(
+        None,
+        "--trace",
+        help="also write per-step traces (speed, SOC, engine on/off, coolant and catalyst temperature, "
+        f"engine-out and tailpipe rates; at most {MAX_TRACED} designs) to this table (.csv or .parquet)",
+    ),
     params: str = PARAMS_OPTION,
 ) -> None:
     """Simulate designs (or a baseline) and write the inputs plus every response, one row per design."""
@@ -41,6 +50,8 @@ def simulate(
         if designs is None:
             raise ValueError("--designs: a design table is required for --vehicle hybrid")
         X = read_designs(designs)
+        if trace is not None and len(X) > MAX_TRACED:
+            raise ValueError(f"--trace: {len(X)} designs; traces are for at most {MAX_TRACED}")
         table = with_inputs(X, sim.run(X, cyc, "hybrid", batch_size=p.doe.batch_size))
     else:
         if designs is not None:
@@ -50,4 +61,10 @@ def simulate(
     table.insert(0, "vehicle", vehicle)
     table["cycle"] = cycle
     table["grade"] = float(np.mean(cyc.grade))
+    traces = None
+    if trace is not None:
+        traces = sim.trace(X if vehicle == "hybrid" else None, cyc, vehicle)
+        traces.insert(0, "vehicle", vehicle)
     write_table(out, pd.DataFrame(table))
+    if traces is not None:
+        write_table(trace, traces)

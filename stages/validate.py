@@ -9,9 +9,10 @@ import typer
 
 from hevlib.io import read_table, write_json, write_parquet, write_text
 from hevlib.plots import save_figure
-from hevlib.plots.validation import improvement_figure, traces_figure
+from hevlib.plots.validation import catalyst_figure, improvement_figure, traces_figure
 from hevlib.report import build_summary
 from hevlib.validation import (
+    cold_start_window_s,
     cycle_notes,
     headline,
     load_cycles,
@@ -62,6 +63,9 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     tr = traces(sim, selected, best, cycles[0], prius_x) if best is not None else None
     if tr is not None:
         figures[f"traces_{names[0]}.png"] = traces_figure(tr, names[0])
+        window_s = cold_start_window_s(sim, cycles[0], tr)
+        if window_s is not None:
+            figures[f"catalyst_{names[0]}.png"] = catalyst_figure(tr, names[0], window_s, sim.light_off_temperature_c())
     else:
         notes.append(
             "no time-trace plot: "
@@ -75,6 +79,9 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     if tr is not None:
         caption = f"{names[0]} traces: best design {best} against both baselines"
         plots[caption] = f"plots/validation/traces_{names[0]}.png"
+        if f"catalyst_{names[0]}.png" in figures:
+            caption = f"{names[0]} cold start: catalyst warm-up of best design {best} against both baselines"
+            plots[caption] = f"plots/validation/catalyst_{names[0]}.png"
     text = build_summary(pareto, summary, table, selected, plots, notes)
 
     write_parquet(TABLE, table, validation_schema())

@@ -134,6 +134,9 @@ def fake_responses(X: np.ndarray) -> pd.DataFrame:
     cols["cycle_met"] = (cols["e_l"] <= 0.0) & ~cols["stalled"]
     cols["speed_err_mean_kmh"] = 10.0 * cols["speed_dev"]
     cols["accessory_unmet_kwh"] = np.where(cols["stalled"], 0.05, 0.0)
+    for p in ("hc", "co", "nox"):
+        cols[f"{p}_engine_out"] = 3.0 * cols[p]
+    cols["t_cat_light_off_s"] = 60.0 + 100.0 * u[:, 0]
     return pd.DataFrame(cols)[list(RESPONSES)]
 
 

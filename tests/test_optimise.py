@@ -113,6 +113,9 @@ def stand_in_simulate(X: np.ndarray) -> pd.DataFrame:
     df["speed_err_mean_kmh"] = 2.0 * df["speed_dev"]
     df["stalled"] = False
     df["accessory_unmet_kwh"] = 0.0
+    for p in ("hc", "co", "nox"):
+        df[f"{p}_engine_out"] = 4.0 * df[p]
+    df["t_cat_light_off_s"] = 120.0
     return df
 
 

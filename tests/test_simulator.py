@@ -367,6 +367,16 @@ def test_hev_simulate_writes_inputs_and_every_response(stage_dir):
     assert res.exit_code == 0, res.output
     conv = pd.read_csv("c.csv")
     assert len(conv) == 1 and conv.loc[0, "vehicle"] == "conventional" and 6.5 < conv.loc[0, "fc"] < 10
+    # traces on request: coolant and catalyst temperature, engine on/off, engine-out and tailpipe rates
+    res = CliRunner().invoke(
+        app, ["simulate", "--designs", "d.csv", "--cycle", "ftp", "--out", "h.csv", "--trace", "h_trace.parquet"]
+    )
+    assert res.exit_code == 0, res.output
+    tr = pd.read_parquet("h_trace.parquet")
+    assert len(tr) == 2 * 2478 and set(tr["design"]) == {0, 1}
+    for col in ("t_coolant_c", "t_cat_c", "eng_on", "hc_engine_out_g_s", "hc_tailpipe_g_s", "nox_tailpipe_g_s"):
+        assert col in tr.columns
+    assert tr["t_cat_c"].max() > 300 and (tr["hc_tailpipe_g_s"] <= tr["hc_engine_out_g_s"] + 1e-15).all()
 
 
 @pytest.mark.parametrize(

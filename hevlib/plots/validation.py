@@ -77,4 +77,40 @@ def traces_figure(traces: Mapping[str, pd.DataFrame], cycle: str) -> plt.Figure:
     return fig
 
 
-__all__ = ["improvement_figure", "traces_figure"]
+def catalyst_figure(traces: Mapping[str, pd.DataFrame], cycle: str, until_s: float, light_off_c: float) -> plt.Figure:
+    """Catalyst (monolith) and coolant temperature, engine on/off and cumulative tailpipe HC of each vehicle
+    over the first ``until_s`` seconds of ``cycle`` (FTP: bag 1, the cold start); ``light_off_c``: the
+    monolith temperature of 50 % HC conversion, drawn as a line."""
+    fig, axes = plt.subplots(3, 1, figsize=(11, 8.5), sharex=True, gridspec_kw={"height_ratios": [3, 1.2, 2]})
+    for i, (label, tr) in enumerate(traces.items()):
+        win = tr["time_s"].to_numpy(dtype=float) <= until_s
+        t, colour = tr["time_s"].to_numpy(dtype=float)[win], f"C{i}"
+        axes[0].plot(t, tr["t_cat_c"].to_numpy()[win], lw=1.2, color=colour, label=f"{label}: catalyst")
+        axes[0].plot(t, tr["t_coolant_c"].to_numpy()[win], lw=0.8, ls="--", color=colour, label=f"{label}: coolant")
+        axes[1].step(t, tr["eng_on"].to_numpy()[win] * 0.8 + i, where="post", lw=0.9, color=colour, label=label)
+        dt = np.diff(t, prepend=t[0])
+        axes[2].plot(
+            t, np.cumsum(tr["hc_tailpipe_g_s"].to_numpy()[win] * dt), lw=1.2, color=colour, label=f"{label}: tailpipe"
+        )
+        axes[2].plot(
+            t,
+            np.cumsum(tr["hc_engine_out_g_s"].to_numpy()[win] * dt),
+            lw=0.8,
+            ls=":",
+            color=colour,
+            label=f"{label}: engine-out",
+        )
+    axes[0].axhline(light_off_c, color="k", lw=0.7, ls="-.", label="50 % HC conversion")
+    axes[0].set_ylabel("temperature [C]")
+    axes[1].set_ylabel("engine on")
+    axes[1].set_yticks([])
+    axes[2].set_ylabel("HC [g]")
+    axes[2].set_xlabel("time [s]")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="upper left", ncol=2)
+    axes[0].set_title(f"{cycle}, first {until_s:g} s from a cold start: catalyst warm-up")
+    return fig
+
+
+__all__ = ["catalyst_figure", "improvement_figure", "traces_figure"]

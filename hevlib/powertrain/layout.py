@@ -59,8 +59,23 @@ dropped: it is reported as ``accessory_unmet_kwh`` and fails the cycle).
     O_STUCK_NOW_S,
     O_STUCK_MAX_S,
     O_ENG_SPUN_STEPS,
-) = range(44)
-N_O = 44
+    O_HC_TP_G,
+    O_CO_TP_G,
+    O_NOX_TP_G,
+    O_T_LIGHT_OFF_S,
+    O_Q_CYL_J,
+    O_Q_EXHAUST_J,
+    O_Q_TAILPIPE_J,
+    O_Q_EXOTHERM_J,
+    O_Q_RADIATOR_J,
+    O_Q_AMBIENT_J,
+    O_U_THERMAL_START_J,
+    O_U_THERMAL_END_J,
+    O_T_COOLANT_END_C,
+    O_T_CAT_END_C,
+    O_T_CAT_MAX_C,
+) = range(59)
+N_O = 59
 OUT_NAMES = (
     "fuel_g",
     "hc_g",
@@ -106,7 +121,25 @@ OUT_NAMES = (
     "stuck_now_s",
     "stuck_max_s",
     "eng_spun_steps",
+    "hc_tailpipe_g",
+    "co_tailpipe_g",
+    "nox_tailpipe_g",
+    "t_cat_light_off_s",
+    "q_cyl_j",
+    "q_exhaust_j",
+    "q_tailpipe_j",
+    "q_exotherm_j",
+    "q_radiator_j",
+    "q_ambient_j",
+    "u_thermal_start_j",
+    "u_thermal_end_j",
+    "t_coolant_end_c",
+    "t_cat_end_c",
+    "t_cat_max_c",
 )
+#: Heat balance of the thermal nodes (hevlib.powertrain.thermal): stored heat change = sources - sinks.
+THERMAL_SOURCES = ("q_cyl_j", "q_exhaust_j", "q_exotherm_j")
+THERMAL_SINKS = ("q_tailpipe_j", "q_radiator_j", "q_ambient_j")
 #: Sinks of the energy balance (sources: e_fuel_j + e_batt_j).
 BALANCE_SINKS = (
     "e_loss_eng_j",
@@ -152,8 +185,16 @@ BALANCE_SINKS = (
     T_GRADE,
     T_P_ACC_UNMET,
     T_M_EFF,
-) = range(25)
-N_T = 25
+    T_T_COOLANT,
+    T_T_CAT,
+    T_HC_EO,
+    T_CO_EO,
+    T_NOX_EO,
+    T_HC_TP,
+    T_CO_TP,
+    T_NOX_TP,
+) = range(33)
+N_T = 33
 TRACE_NAMES = (
     "v_ref_mps",
     "v_mps",
@@ -180,4 +221,12 @@ TRACE_NAMES = (
     "grade",
     "p_acc_unmet_w",
     "m_eff_kg",
+    "t_coolant_c",
+    "t_cat_c",
+    "hc_engine_out_g_s",
+    "co_engine_out_g_s",
+    "nox_engine_out_g_s",
+    "hc_tailpipe_g_s",
+    "co_tailpipe_g_s",
+    "nox_tailpipe_g_s",
 )
