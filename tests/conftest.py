@@ -38,6 +38,22 @@ def lib(params: Params) -> ComponentLibrary:
 
 
 @pytest.fixture(scope="session")
+def sim(lib: ComponentLibrary, params: Params):
+    """The simulator on the study's library and the repository's params."""
+    from hevlib.simulate import Simulator
+
+    return Simulator(lib, params)
+
+
+@pytest.fixture(scope="session")
+def cycles(params: Params) -> dict:
+    """Every cycle of params.yaml, resampled and graded as the ``cycles`` stage builds them."""
+    from hevlib.cycles import build_cycles
+
+    return build_cycles(params.cycles)
+
+
+@pytest.fixture(scope="session")
 def raw() -> Path:
     """``data/raw`` of this checkout (git-tracked inputs)."""
     return RAW

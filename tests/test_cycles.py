@@ -11,7 +11,6 @@ from hevlib.cycles import (
     CYCLE_SCHEMA,
     Cycle,
     CycleError,
-    build_cycles,
     load_cycle,
     read_raw_cycle,
     resample,
@@ -94,11 +93,6 @@ def test_cycle_object_checks_its_invariants():
     cyc = Cycle("x", t, np.array([0, 1, 2, 0.0]), np.zeros(4))
     with pytest.raises(ValueError):
         cyc.speed_mps[0] = 5.0  # immutable arrays
-
-
-@pytest.fixture(scope="module")
-def cycles(params):
-    return build_cycles(params.cycles)
 
 
 def test_cycle_figures_match_the_source_metadata(cycles, params, root):

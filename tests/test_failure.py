@@ -9,7 +9,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hevlib.cycles import build_cycles
 from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, SENSE, DesignSpace
 from hevlib.doe import l27_designs, lhs_designs
 from hevlib.drive import conventional_equivalent_mass_kg, split_design, split_equivalent_mass_kg
@@ -18,7 +17,7 @@ from hevlib.optimise import ALGORITHMS, HevProblem, drop_stalled, optimise, opti
 from hevlib.params import AlgoParams
 from hevlib.pareto import screening_rules, select_designs
 from hevlib.powertrain import hybrid as split
-from hevlib.simulate import Simulator, energy_balance
+from hevlib.simulate import energy_balance
 
 #: L27 design 25's gear set (n_r 78, n_s 18, k = 4.33) with the smallest motor, battery and i0: too weak
 #: to start on the 20 % grade of the sizing cycle.
@@ -27,16 +26,6 @@ STALLS = np.array([25.0, 20.0, 5.0, 2.0, 10, 78, 18])
 WORKS = np.array([43.0, 31.0, 15.0, 3.93, 25, 78, 30])
 #: Cycle objectives a failure may not improve (m_veh, v_max, f_max are flat-road properties of the design).
 CYCLE_OBJECTIVES = ("fc", "accel_dev", "hc", "co", "nox", "e_l", "speed_dev", "diff_soc")
-
-
-@pytest.fixture(scope="module")
-def sim(lib, params) -> Simulator:
-    return Simulator(lib, params)
-
-
-@pytest.fixture(scope="module")
-def cycles(params):
-    return build_cycles(params.cycles)
 
 
 @pytest.fixture(scope="module")

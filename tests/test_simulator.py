@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hevlib.cycles import Cycle, build_cycles
+from hevlib.cycles import build_cycles
 from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
 from hevlib.doe import lhs_designs
 from hevlib.drive import R_MASS, SPEED_TOL, split_equivalent_mass_kg
@@ -19,16 +19,6 @@ from hevlib.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_fo
 from hevlib.simulate import Simulator, energy_balance
 
 PRIUS = [43.0, 31.0, 15.0, 3.93, 25, 78, 30]
-
-
-@pytest.fixture(scope="module")
-def sim(lib, params) -> Simulator:
-    return Simulator(lib, params)
-
-
-@pytest.fixture(scope="module")
-def cycles(params) -> dict[str, Cycle]:
-    return build_cycles(params.cycles)
 
 
 @pytest.fixture(scope="module")

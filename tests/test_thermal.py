@@ -7,23 +7,13 @@ import numpy as np
 import pytest
 import yaml
 
-from hevlib.cycles import Cycle, build_cycles
+from hevlib.cycles import Cycle
 from hevlib.doe import lhs_designs
 from hevlib.powertrain import thermal as T
 from hevlib.powertrain.layout import N_O, OUT_NAMES
 from hevlib.simulate import Simulator, energy_balance
 
 PRIUS = [43.0, 31.0, 15.0, 3.93, 25, 78, 30]
-
-
-@pytest.fixture(scope="module")
-def sim(lib, params) -> Simulator:
-    return Simulator(lib, params)
-
-
-@pytest.fixture(scope="module")
-def cycles(params) -> dict[str, Cycle]:
-    return build_cycles(params.cycles)
 
 
 @pytest.fixture(scope="module")
@@ -240,3 +230,22 @@ def test_start_state_must_name_a_cycle(root):
     data["sim"]["start"]["nosuch"] = "hot"
     with pytest.raises(ValueError, match="sim.start.nosuch"):
         parse_params(data)
+
+
+def test_catalyst_plot_window_is_ftp_bag_1_and_only_for_cold_starts(sim, cycles):
+    from hevlib.plots import plt
+    from hevlib.plots.validation import catalyst_figure
+    from hevlib.validation import cold_start_window_s
+
+    tr = {
+        "prius": sim.trace(None, cycles["ftp"], "prius"),
+        "conventional": sim.trace(None, cycles["ftp"], "conventional"),
+    }
+    assert cold_start_window_s(sim, cycles["ftp"], tr) == 505.0
+    assert cold_start_window_s(sim, cycles["udds"], tr) == cycles["udds"].duration_s
+    assert cold_start_window_s(sim, cycles["hwfet"], tr) is None  # run hot: no warm-up to show
+    assert cold_start_window_s(sim, cycles["ftp"], {"x": tr["prius"].drop(columns="t_cat_c")}) is None
+    fig = catalyst_figure(tr, "ftp", 505.0, sim.light_off_temperature_c())
+    lines = fig.axes[0].get_lines()
+    assert max(line.get_xdata().max() for line in lines if len(line.get_xdata()) > 2) == 505.0
+    plt.close(fig)
