@@ -203,9 +203,9 @@ def _book_engine(o, fuel, hc, co, nox, p_shaft, lhv_j_per_g, dt):
 
 
 @njit(cache=True, inline="always")
-def _exhaust(o, temp, k, X, key, fuel, q_waste, w_e, hc, co, nox, v_avg, dt, t, tr, record):
+def _exhaust(o, temp, k, q, X, key, fuel, q_waste, w_e, hc, co, nox, v_avg, dt, t, tr, record):
     """Thermal nodes and tailpipe emissions of one step (and their trace channels)."""
-    tp_hc, tp_co, tp_nox = th_.thermal_step(temp, k, X, key, fuel, q_waste, w_e, hc, co, nox, v_avg, dt, o)
+    tp_hc, tp_co, tp_nox = th_.thermal_step(temp, k, q, X, key, fuel, q_waste, w_e, hc, co, nox, v_avg, dt, o)
     th_.check_light_off(temp, X, (t + 1) * dt, o)
     if record:
         tr[t + 1, L.T_T_COOLANT] = temp[th_.N_BLOCK]
@@ -342,7 +342,7 @@ def _hybrid_one(
     eng_on, t_state = False, 1e9
     soc_lo, soc_hi = soc, soc
     n = v_ref.shape[0]
-    k_th, temp = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
+    k_th, temp, q_th = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]
@@ -368,7 +368,7 @@ def _hybrid_one(
             # prescribed key-off (e.g. the FTP soak): nothing runs, no accessory load
             eng_on = False
             _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.off_trace_mps)
-            _exhaust(o, temp, k_th, X, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, t, tr, record)
+            _exhaust(o, temp, k_th, q_th, X, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, t, tr, record)
             t_state += dt
             if record:
                 tr[t + 1, L.T_SOC] = soc
@@ -430,7 +430,7 @@ def _hybrid_one(
         # ---- energy accounting (J)
         _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, dt)
         q_waste = fuel * c.lhv_j_per_g - p_shaft
-        _exhaust(o, temp, k_th, X, True, fuel, q_waste, st.w_e, hc, co, nox, v_avg, dt, t, tr, record)
+        _exhaust(o, temp, k_th, q_th, X, True, fuel, q_waste, st.w_e, hc, co, nox, v_avg, dt, t, tr, record)
         o[L.O_E_BATT] += p_chem * dt
         o[L.O_E_LOSS_BATT] += (p_chem - st.p_batt) * dt
         o[L.O_E_LOSS_MOT] += (st.p_m_e - st.t_m * st.w_r) * dt
@@ -554,7 +554,7 @@ def _conventional_one(
     v_lim = d.w_e_max * d.r / ratios[-1]
     v = 0.0
     n = v_ref.shape[0]
-    k_th, temp = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
+    k_th, temp, q_th = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]
@@ -563,7 +563,7 @@ def _conventional_one(
         stationary = v0 <= 1e-9 and v_tgt <= 1e-9
         if stationary and not key_on[t]:
             _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.off_trace_mps)
-            _exhaust(o, temp, k_th, X, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, t, tr, record)
+            _exhaust(o, temp, k_th, q_th, X, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, t, tr, record)
             if record:
                 tr[t + 1, L.T_GRADE] = gr
             continue
@@ -616,7 +616,7 @@ def _conventional_one(
         p_shaft = st.t_e * st.w_e
         _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, dt)
         q_waste = fuel * c.lhv_j_per_g - p_shaft
-        _exhaust(o, temp, k_th, X, True, fuel, q_waste, st.w_e, hc, co, nox, v_avg, dt, t, tr, record)
+        _exhaust(o, temp, k_th, q_th, X, True, fuel, q_waste, st.w_e, hc, co, nox, v_avg, dt, t, tr, record)
         o[L.O_E_ACC] += d.p_acc_w * dt
         o[L.O_E_LOSS_GB] += st.loss_gb_w * dt
         o[L.O_E_LOSS_CLUTCH] += st.loss_clutch_w * dt

@@ -41,7 +41,7 @@ import numpy as np
 from numba import njit
 
 from hevlib.powertrain import layout as L
-from hevlib.powertrain.lookup import interp1
+from hevlib.powertrain.lookup import bracket, interp1
 
 SIGMA = 5.670374419e-8  # Stefan-Boltzmann, W/m^2/K^4
 KELVIN = 273.15
@@ -148,19 +148,23 @@ def cold_factors(t_block_c: float, t: ThermalConfig) -> tuple[float, float, floa
     if not t.cold_correction:
         return 1.0, 1.0, 1.0, 1.0
     lam = min(max((t.t_stat_c - t_block_c) / (t.t_stat_c - t.t_map_c), 0.0), 1.0)
+    if lam == 0.0:  # warm
+        return 1.0, 1.0, 1.0, 1.0
     return 1.0 + 0.1 * lam**0.65, 1.0 + 8.05 * lam**9.46, 1.0 + 2.13 * lam**4.26, 1.0 + 0.51 * lam**1.37
 
 
 @njit(cache=True)
 def start(p_eng_kw: float, t: ThermalConfig, t_init_c: np.ndarray, dt: float, o: np.ndarray):
-    """Per-design constants and the nodes' start temperatures; books the stored heat and light-off at 0."""
+    """Per-design constants, the nodes' start temperatures and a scratch array for :func:`thermal_step`;
+    books the stored heat and the light-off at time 0."""
     k = design_constants(p_eng_kw, t, dt, t.fuel_max_g_s * p_eng_kw / t.p_base_kw * (1.0 + t.afr))
     temp = t_init_c.copy()
+    q = np.zeros(N_NODES)  # scratch: net heat into each node, W (reused every step)
     o[L.O_U_THERMAL_START_J] = stored_heat(temp, k)
     o[L.O_T_LIGHT_OFF_S] = -1.0
     o[L.O_T_CAT_MAX_C] = temp[N_MON]
     check_light_off(temp, t, 0.0, o)
-    return k, temp
+    return k, temp, q
 
 
 @njit(cache=True)
@@ -235,9 +239,16 @@ def substeps(k: np.ndarray, t: ThermalConfig, dt: float, w_flow_max: float) -> f
 
 
 @njit(cache=True, inline="always")
-def _h_air(dt_k: float, v_mps: float, base: float, v_share: float, v_ref: float) -> float:
-    """ADVISOR's air-side coefficient: natural + forced convection, W/(m^2 K) (speed in m/s, as its code)."""
-    return base + 6.0 * (abs(dt_k) / 1000.0) ** 0.3 + 60.0 * (abs(v_share * v_mps) / v_ref) ** 0.6
+def _forced(v_mps: float, v_share: float, v_ref: float) -> float:
+    """Forced-convection part of ADVISOR's air-side coefficient, W/(m^2 K) (speed in m/s, as its code)."""
+    return 60.0 * (abs(v_share * v_mps) / v_ref) ** 0.6
+
+
+@njit(cache=True, inline="always")
+def _h_air(dt_k: float, base_forced: float) -> float:
+    """ADVISOR's air-side coefficient, W/(m^2 K): ``base_forced`` (its base 6 or 10 plus :func:`_forced`)
+    plus natural convection ``6 (|dT| / 1000)^0.3``."""
+    return base_forced + 6.0 * (abs(dt_k) / 1000.0) ** 0.3
 
 
 @njit(cache=True, inline="always")
@@ -256,11 +267,12 @@ def _gas_exchange(ua: float, c_gas: float, t_solid: float, t_in: float) -> float
 
 @njit(cache=True, inline="always")
 def conversion(t_mon: float, t: ThermalConfig) -> tuple[float, float, float]:
-    """Conversion efficiencies (HC, CO, NOx) at monolith temperature ``t_mon`` (degC)."""
+    """Conversion efficiencies (HC, CO, NOx) at monolith temperature ``t_mon`` (degC), linear in the table."""
+    i, f = bracket(t_mon, t.conv_t_c)
     return (
-        interp1(t_mon, t.conv_t_c, t.conv_hc),
-        interp1(t_mon, t.conv_t_c, t.conv_co),
-        interp1(t_mon, t.conv_t_c, t.conv_nox),
+        t.conv_hc[i] + f * (t.conv_hc[i + 1] - t.conv_hc[i]),
+        t.conv_co[i] + f * (t.conv_co[i + 1] - t.conv_co[i]),
+        t.conv_nox[i] + f * (t.conv_nox[i + 1] - t.conv_nox[i]),
     )
 
 
@@ -283,6 +295,7 @@ def stored_heat(temp: np.ndarray, k: np.ndarray) -> float:
 def thermal_step(
     temp: np.ndarray,
     k: np.ndarray,
+    q: np.ndarray,
     t: ThermalConfig,
     key_on: bool,
     fuel_g_s: float,
@@ -296,6 +309,7 @@ def thermal_step(
     o: np.ndarray,
 ) -> tuple[float, float, float]:
     """Advance the nine nodes ``temp`` over one drive step; return the tailpipe (HC, CO, NOx) rates, g/s.
+    ``q`` is scratch space (:func:`start`).
 
     ``q_waste_w``: the engine's waste heat (fuel power - shaft power, the engine loss of the energy
     balance) of the step, ``fuel_g_s`` its fuel rate (0: no exhaust flow), ``w_e`` its speed. Accumulates the
@@ -327,10 +341,13 @@ def thermal_step(
         q_exo = c_gas * (669.0 * x_hc + (93.0 + 79.0 / 3.0) * (x_co - x_nox) + 121.0 * x_nox)
         q_exo = max(q_exo, 0.0)
     h_gas = 23.0 * (flow / 10.0) ** 0.8 if flow > 0.0 else 0.0
+    # air-side coefficients' base + forced parts (ADVISOR: engine bay at half, exhaust at 0.75 of the speed)
+    hb_x = 6.0 + _forced(v_mps, 0.5, 30.0)
+    hb_h = 10.0 + _forced(v_mps, 1.0, 30.0)
+    hb_e = 6.0 + _forced(v_mps, 0.75, 21.0)
     n_sub = int(k[K_N_SUB])
     h = dt / n_sub
     ax, a_hood = k[K_AX], t.a_hood_m2
-    q = np.zeros(N_NODES)
     q_tail = q_rad = q_amb = 0.0
     for _ in range(n_sub):
         tc, ti, tx, th = temp[N_CYL], temp[N_BLOCK], temp[N_EXT], temp[N_HOOD]
@@ -345,11 +362,11 @@ def thermal_step(
         f = t.g_i2x * (ti - tx)
         q[N_BLOCK] -= f
         q[N_EXT] += f
-        f = (t.g_h2x + _h_air(th - tx, v_mps, 6.0, 0.5, 30.0) * ax) * (tx - th) + _rad(t.eps_eng * ax, tx, th)
+        f = (t.g_h2x + _h_air(th - tx, hb_x) * ax) * (tx - th) + _rad(t.eps_eng * ax, tx, th)
         q[N_EXT] -= f
         q[N_HOOD] += f
-        loss_x = _h_air(amb - tx, v_mps, 6.0, 0.5, 30.0) * 0.5 * ax * (tx - amb) + _rad(t.eps_eng * 0.5 * ax, tx, amb)
-        loss_h = _h_air(amb - th, v_mps, 10.0, 1.0, 30.0) * a_hood * (th - amb) + _rad(t.eps_hood * a_hood, th, amb)
+        loss_x = _h_air(amb - tx, hb_x) * 0.5 * ax * (tx - amb) + _rad(t.eps_eng * 0.5 * ax, tx, amb)
+        loss_h = _h_air(amb - th, hb_h) * a_hood * (th - amb) + _rad(t.eps_hood * a_hood, th, amb)
         q[N_EXT] -= loss_x
         q[N_HOOD] -= loss_h
         # ---- exhaust gas: manifold, inlet pipe, converter (monolith channels + exposed shell)
@@ -372,9 +389,7 @@ def thermal_step(
             t_g += (f_m + f_i) / c_gas
             q[N_MON] += q_exo
         # ---- exhaust solids
-        f = _rad(t.eps_man * k[K_A_MAN], tman, tx) + _h_air(tx - tman, v_mps, 6.0, 0.75, 21.0) * k[K_A_MAN] * (
-            tman - tx
-        )
+        f = _rad(t.eps_man * k[K_A_MAN], tman, tx) + _h_air(tx - tman, hb_e) * k[K_A_MAN] * (tman - tx)
         q[N_MAN] -= f
         q[N_EXT] += f
         f = interp1(tci, t.m2i_t_c, t.m2i_g) * (tci - tm)
@@ -392,12 +407,8 @@ def thermal_step(
         f = t.g_pipe2shield * (tcx - tcp)
         q[N_SHIELD] -= f
         q[N_PIPE] += f
-        loss_p = _rad(t.eps_pipe * k[K_A_PIPE], tcp, amb) + _h_air(amb - tcp, v_mps, 6.0, 0.75, 21.0) * k[K_A_PIPE] * (
-            tcp - amb
-        )
-        loss_s = _rad(t.eps_shield * k[K_A_SHIELD], tcx, amb) + _h_air(amb - tcx, v_mps, 6.0, 0.75, 21.0) * k[
-            K_A_SHIELD
-        ] * (tcx - amb)
+        loss_p = _rad(t.eps_pipe * k[K_A_PIPE], tcp, amb) + _h_air(amb - tcp, hb_e) * k[K_A_PIPE] * (tcp - amb)
+        loss_s = _rad(t.eps_shield * k[K_A_SHIELD], tcx, amb) + _h_air(amb - tcx, hb_e) * k[K_A_SHIELD] * (tcx - amb)
         q[N_PIPE] -= loss_p
         q[N_SHIELD] -= loss_s
         # ---- thermostat: with the key on, the radiator holds the block at t_stat (removes heat only)
