@@ -44,6 +44,7 @@ from hevlib.design import (
     DesignSpace,
 )
 from hevlib.io import write_parquet
+from hevlib.params import EXECUTION_KEYS
 
 L27_FILE = "data/raw/paper/l27_assignment.csv"
 METHODS = ("l27", "lhs", "both")
@@ -220,12 +221,14 @@ def heldout_record(space: DesignSpace, p) -> dict:
 def simulation_fingerprint(params) -> str:
     """Short hash of everything that changes a simulated response: the model version, the simulator's
     source code and the params groups ``cycles``, ``baseline``, ``sim``, ``pms`` (a cached simulated set
-    is reused only if equal)."""
+    is reused only if equal), less where the batches run (``EXECUTION_KEYS``)."""
     blob = json.dumps(
         {
             "model_version": MODEL_VERSION,
             "simulator_source": source_hash(SIMULATOR_SOURCES),
-            **params.model_dump(mode="json", include={"cycles", "baseline", "sim", "pms"}),
+            **params.model_dump(
+                mode="json", include={"cycles", "baseline", "sim", "pms"}, exclude={"sim": set(EXECUTION_KEYS)}
+            ),
         },
         sort_keys=True,
     )

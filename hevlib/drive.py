@@ -24,6 +24,7 @@ from hevlib.powertrain.battery import current_for_power, power_limits
 from hevlib.powertrain.engine import EngineArrays, max_torque, rates
 from hevlib.powertrain.lookup import cell
 from hevlib.powertrain.machines import MachineArrays, torque_limit
+from hevlib.powertrain.scaling import in_series
 from hevlib.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_force
 
 LIMIT_TOL = 1e-9  # relative tolerance of the limit checks
@@ -162,7 +163,7 @@ def pack_state(soc: float, n_bat: float, B: BatteryArrays) -> tuple[float, float
     ocv = B.ocv_v[i] + f * (B.ocv_v[i + 1] - B.ocv_v[i])
     r_d = B.r_dis_ohm[i] + f * (B.r_dis_ohm[i + 1] - B.r_dis_ohm[i])
     r_c = B.r_chg_ohm[i] + f * (B.r_chg_ohm[i + 1] - B.r_chg_ohm[i])
-    return n_bat * ocv, n_bat * r_d, n_bat * r_c
+    return in_series(ocv, n_bat), in_series(r_d, n_bat), in_series(r_c, n_bat)
 
 
 @njit(cache=True, inline="always")
@@ -172,8 +173,8 @@ def pack_limits(soc: float, n_bat: float, c: DriveConfig, B: BatteryArrays) -> t
         ocv,
         r_d,
         r_c,
-        n_bat * c.v_min_mod,
-        n_bat * c.v_max_mod,
+        in_series(c.v_min_mod, n_bat),
+        in_series(c.v_max_mod, n_bat),
         c.i_max_a,
         soc,
         c.soc_min,
@@ -353,8 +354,8 @@ def _hybrid_one(
             ocv,
             r_d,
             r_c,
-            n_bat * c.v_min_mod,
-            n_bat * c.v_max_mod,
+            in_series(c.v_min_mod, n_bat),
+            in_series(c.v_max_mod, n_bat),
             c.i_max_a,
             soc,
             c.soc_min,

@@ -108,6 +108,10 @@ class BaselineParams(_Strict):
 
 
 # --------------------------------------------------------------------------------------- simulation
+#: ``sim`` keys that choose where batches run, never what they compute (left out of the simulation fingerprint)
+EXECUTION_KEYS = ("executor", "scheduler", "workers")
+
+
 class SimParams(_Strict):
     soc_init: Frac = 0.7  # ADVISOR's initial SOC
     soc_min: Frac = 0.45  # PTC_PRIUS_JPN SOC window
@@ -125,11 +129,18 @@ class SimParams(_Strict):
     emissions: Literal["tailpipe", "engine_out"] = "tailpipe"  # what the hc, co, nox objectives are
     start: dict[str, Literal["cold", "hot"]] = {}  # thermal start state per cycle name (absent: cold)
     cold_correction: Literal["none", "advisor"] = "advisor"  # cold-engine fuel/emission factors (no cold maps)
+    # where batches of designs run (hevlib/executor.py); results do not depend on it
+    executor: Literal["local", "dask"] = "local"
+    scheduler: str | None = None  # dask: scheduler address (tcp://host:8786); unset: a LocalCluster per stage
+    workers: Annotated[int, Field(ge=1, le=4096)] | None = None  # LocalCluster worker processes (unset: 1 per core)
 
     @model_validator(mode="after")
     def _window(self):
         if not self.soc_min < self.soc_init < self.soc_max:
             raise ValueError("soc_init: must lie strictly inside (soc_min, soc_max)")
+        for key in ("scheduler", "workers"):
+            if self.executor == "local" and getattr(self, key) is not None:
+                raise ValueError(f"{key}: set only with executor: dask")
         return self
 
 

@@ -5,6 +5,9 @@ torque scaling): torque axis, torque limits, fuel and emission rates all multipl
 factor ``s = P_target / P_base``; efficiency maps are unchanged on normalised torque. Masses follow
 ADVISOR's rules: engine (block + accessories) x s plus a fixed fuel system, exhaust 0.26 kg/kW,
 machines x s, battery per module. Every function is vectorised over designs.
+
+The law itself lives once, in the kernels' :mod:`hevlib.powertrain.scaling`; this module applies it to
+whole maps and arrays of designs (reports, plots, the mass model).
 """
 
 from __future__ import annotations
@@ -25,6 +28,8 @@ from hevlib.components import (
     read_paper_row,
 )
 from hevlib.design import DESIGN_VARS
+from hevlib.powertrain.scaling import in_series, scaled
+from hevlib.powertrain.scaling import power_scale as kernel_power_scale
 
 if TYPE_CHECKING:
     from hevlib.params import BaselineParams
@@ -38,7 +43,7 @@ def power_scale(p_target_kw, p_base_kw: float) -> np.ndarray:
     p = np.asarray(p_target_kw, dtype=float)
     if np.any(p <= 0) or not np.all(np.isfinite(p)):
         raise ValueError("scaling: target power must be positive and finite")
-    return p / p_base_kw
+    return kernel_power_scale(p.reshape(-1), float(p_base_kw)).reshape(p.shape)
 
 
 def scale_engine(engine: EngineMap, p_kw: float) -> EngineMap:
@@ -47,15 +52,15 @@ def scale_engine(engine: EngineMap, p_kw: float) -> EngineMap:
     return dataclasses.replace(
         engine,
         name=f"{engine.name}@{p_kw:g}kW",
-        torque_nm=engine.torque_nm * s,
-        max_torque_nm=engine.max_torque_nm * s,
-        fuel_g_s=engine.fuel_g_s * s,
-        hc_g_s=engine.hc_g_s * s,
-        co_g_s=engine.co_g_s * s,
-        nox_g_s=engine.nox_g_s * s,
-        peak_power_kw=engine.peak_power_kw * s,
-        engine_mass_kg=engine.engine_mass_kg * s,
-        inertia_kg_m2=engine.inertia_kg_m2 * s,
+        torque_nm=scaled(engine.torque_nm, s),
+        max_torque_nm=scaled(engine.max_torque_nm, s),
+        fuel_g_s=scaled(engine.fuel_g_s, s),
+        hc_g_s=scaled(engine.hc_g_s, s),
+        co_g_s=scaled(engine.co_g_s, s),
+        nox_g_s=scaled(engine.nox_g_s, s),
+        peak_power_kw=scaled(engine.peak_power_kw, s),
+        engine_mass_kg=scaled(engine.engine_mass_kg, s),
+        inertia_kg_m2=scaled(engine.inertia_kg_m2, s),
     )
 
 
@@ -65,11 +70,11 @@ def scale_machine(machine: MachineMap, p_kw: float) -> MachineMap:
     return dataclasses.replace(
         machine,
         name=f"{machine.name}@{p_kw:g}kW",
-        torque_nm=machine.torque_nm * s,
-        max_torque_nm=machine.max_torque_nm * s,
-        peak_power_kw=machine.peak_power_kw * s,
-        mass_kg=machine.mass_kg * s,
-        inertia_kg_m2=machine.inertia_kg_m2 * s,
+        torque_nm=scaled(machine.torque_nm, s),
+        max_torque_nm=scaled(machine.max_torque_nm, s),
+        peak_power_kw=scaled(machine.peak_power_kw, s),
+        mass_kg=scaled(machine.mass_kg, s),
+        inertia_kg_m2=scaled(machine.inertia_kg_m2, s),
     )
 
 
@@ -77,12 +82,12 @@ def engine_system_mass_kg(engine: EngineMap, p_kw, exhaust_kg_per_kw: float) -> 
     """Engine (scaled block + accessories), fixed fuel system, and exhaust/catalyst, in kg."""
     s = power_scale(p_kw, engine.peak_power_kw)
     exhaust_kg = exhaust_kg_per_kw * np.asarray(p_kw, dtype=float)
-    return engine.engine_mass_kg * s + engine.fuel_system_mass_kg + exhaust_kg
+    return scaled(engine.engine_mass_kg, s) + engine.fuel_system_mass_kg + exhaust_kg
 
 
 def machine_mass_kg(machine: MachineMap, p_kw) -> np.ndarray:
     """Machine + inverter mass scaled with peak power (ADVISOR: mass x torque scale x speed scale)."""
-    return machine.mass_kg * power_scale(p_kw, machine.peak_power_kw)
+    return scaled(machine.mass_kg, power_scale(p_kw, machine.peak_power_kw))
 
 
 @dataclass(frozen=True)
@@ -105,13 +110,13 @@ def battery_pack(lib: ComponentLibrary, n_bat) -> PackArrays:
         raise ValueError("n_bat: module count must be a positive integer")
     m = lib.battery
     return PackArrays(
-        ocv_v=n[:, None] * m.ocv_v[None, :],
-        r_dis_ohm=n[:, None] * m.r_dis_ohm[None, :],
-        r_chg_ohm=n[:, None] * m.r_chg_ohm[None, :],
-        v_min=n * m.v_min,
-        v_max=n * m.v_max,
+        ocv_v=in_series(m.ocv_v[None, :], n[:, None]),
+        r_dis_ohm=in_series(m.r_dis_ohm[None, :], n[:, None]),
+        r_chg_ohm=in_series(m.r_chg_ohm[None, :], n[:, None]),
+        v_min=in_series(m.v_min, n),
+        v_max=in_series(m.v_max, n),
         capacity_ah=m.capacity_ah,
-        mass_kg=n * m.mass_kg,
+        mass_kg=in_series(m.mass_kg, n),
     )
 
 

@@ -28,6 +28,7 @@ from hevlib.control import PmsConfig, thresholds
 from hevlib.cycles import Cycle
 from hevlib.design import BOOL_RESPONSES, DESIGN_VARS, OBJECTIVES, RESPONSES, design_vector
 from hevlib.drive import N_R, BatteryArrays, DriveConfig, drive_conventional, drive_hybrid
+from hevlib.executor import LocalExecutor, executor_for
 from hevlib.params import Params
 from hevlib.performance import performance_batch
 from hevlib.powertrain.conventional import ConvDesign
@@ -248,6 +249,24 @@ class Simulator:
         )
         self._ratios = np.ascontiguousarray(base.conventional.gear_ratios, float)
         self._upshift = np.ascontiguousarray(base.conventional.upshift_kmh, float)
+        #: where :meth:`run` sends its batches (``sim.executor``); close with :meth:`close` or ``with``
+        self.executor = executor_for(sim)
+
+    def close(self) -> None:
+        """Close the executor (a Dask ``LocalCluster`` it started)."""
+        self.executor.close()
+
+    def __enter__(self) -> Simulator:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __getstate__(self) -> dict:
+        # what a Dask worker receives: everything but the executor (the workers simulate locally)
+        state = dict(self.__dict__)
+        state["executor"] = LocalExecutor()
+        return state
 
     @classmethod
     def from_params(cls, params: Params, components_dir: str | Path = "data/components") -> Simulator:
@@ -503,11 +522,11 @@ class Simulator:
             frames = [self.responses(self.run_raw(None, cycle, vehicle), cycle)]
         else:
             X = self.space.check(X, what="designs")
-            frames = []
-            for start in range(0, X.shape[0], max(int(batch_size), 1)):
-                frames.append(self.responses(self.run_raw(X[start : start + batch_size], cycle, vehicle), cycle))
-                if progress is not None:
-                    progress(min(start + batch_size, X.shape[0]), X.shape[0])
+            step = max(int(batch_size), 1)
+            batches = [X[start : start + step] for start in range(0, X.shape[0], step)]
+            frames = self.executor.map(
+                _batch_responses, self, [(b, cycle) for b in batches], [len(b) for b in batches], progress
+            )
         if not frames:
             return pd.DataFrame({k: pd.Series(dtype=bool if k in BOOL_RESPONSES else float) for k in RESPONSES})
         return pd.concat(frames, ignore_index=True)
@@ -590,6 +609,12 @@ class Simulator:
             col = r.columns[r.iloc[i].isna()][0]
             raise FloatingPointError(f"simulation produced NaN for {col} (design row {i}, cycle {cycle.name})")
         return r
+
+
+def _batch_responses(sim: Simulator, item: tuple[np.ndarray, Cycle]) -> pd.DataFrame:
+    """One batch's responses (an executor's task)."""
+    X, cycle = item
+    return sim.responses(sim.run_raw(X, cycle, "hybrid"), cycle)
 
 
 def warm_up(params: Params, paper_dir: str | Path = "data/raw/paper") -> None:

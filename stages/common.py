@@ -16,6 +16,7 @@ from hevlib.params import Params, ParamsError, load_params
 CYCLES_DIR = Path("data/cycles")
 COMPONENTS_DIR = Path("data/components")
 PARAMS_OPTION = typer.Option("params.yaml", "--params", help="params file to validate and use")
+_OPEN: list = []  # simulators a running stage created: their executors (a Dask cluster) close with it
 
 
 def stage(fn: Callable) -> Callable:
@@ -29,6 +30,9 @@ def stage(fn: Callable) -> Callable:
             msg = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
             typer.echo(f"error: {msg}", err=True)
             raise typer.Exit(code=1) from None
+        finally:
+            while _OPEN:
+                _OPEN.pop().close()
 
     return wrapper
 
@@ -66,7 +70,9 @@ def simulator(params):
     """The simulator on the components stage's normalised maps."""
     from hevlib.simulate import Simulator  # numba kernels: only loaded to simulate
 
-    return Simulator.from_params(params, components_dir=str(COMPONENTS_DIR))
+    sim = Simulator.from_params(params, components_dir=str(COMPONENTS_DIR))
+    _OPEN.append(sim)  # closed when the stage ends (stage)
+    return sim
 
 
 def sizing_setup(params):

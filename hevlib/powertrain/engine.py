@@ -12,6 +12,7 @@ import numpy as np
 from numba import njit
 
 from hevlib.powertrain.lookup import blend, cell, interp1, interp_uniform
+from hevlib.powertrain.scaling import base_torque, scaled
 
 
 class EngineArrays(NamedTuple):
@@ -35,36 +36,36 @@ class EngineArrays(NamedTuple):
 @njit(cache=True, inline="always")
 def max_torque(w: float, s: float, e: EngineArrays) -> float:
     i, f = cell(w, e.w0, e.dw, e.t_max.shape[0])
-    return (e.t_max[i] + f * (e.t_max[i + 1] - e.t_max[i])) * s
+    return scaled(e.t_max[i] + f * (e.t_max[i + 1] - e.t_max[i]), s)
 
 
 @njit(cache=True, inline="always")
 def drag_torque(w: float, s: float, e: EngineArrays) -> float:
     """Torque (<= 0) of the engine scaled by ``s`` when it is spun with its fuel cut (closed throttle)."""
     i, f = cell(w, e.w0, e.dw, e.t_drag.shape[0])
-    return (e.t_drag[i] + f * (e.t_drag[i + 1] - e.t_drag[i])) * s
+    return scaled(e.t_drag[i] + f * (e.t_drag[i + 1] - e.t_drag[i]), s)
 
 
 @njit(cache=True, inline="always")
 def line_speed(p_w: float, s: float, e: EngineArrays) -> float:
     """Speed of least fuel for shaft power ``p_w`` of the engine scaled by ``s``."""
-    return interp_uniform(p_w / s, 0.0, e.line_p[1], e.line_w)
+    return interp_uniform(p_w / s, 0.0, e.line_p[1], e.line_w)  # power scales as torque
 
 
 @njit(cache=True, inline="always")
 def line_power_for_torque(t: float, s: float, e: EngineArrays) -> float:
     """Shaft power on the best-efficiency line where the scaled engine gives torque ``t``."""
-    return s * interp1(t / s, e.line_t, e.line_p)
+    return scaled(interp1(base_torque(t, s), e.line_t, e.line_p), s)
 
 
 @njit(cache=True)
 def rates(w: float, t: float, s: float, e: EngineArrays) -> tuple[float, float, float, float]:
     """(fuel, hc, co, nox) in g/s at speed ``w`` and torque ``t`` (>= 0) of the engine scaled by ``s``."""
     i, fx = cell(w, e.w0, e.dw, e.fuel.shape[0])
-    j, fy = cell(t / s, 0.0, e.dt, e.fuel.shape[1])
+    j, fy = cell(base_torque(t, s), 0.0, e.dt, e.fuel.shape[1])
     return (
-        s * blend(e.fuel, i, j, fx, fy),
-        s * blend(e.hc, i, j, fx, fy),
-        s * blend(e.co, i, j, fx, fy),
-        s * blend(e.nox, i, j, fx, fy),
+        scaled(blend(e.fuel, i, j, fx, fy), s),
+        scaled(blend(e.hc, i, j, fx, fy), s),
+        scaled(blend(e.co, i, j, fx, fy), s),
+        scaled(blend(e.nox, i, j, fx, fy), s),
     )

@@ -13,6 +13,7 @@ import numpy as np
 from numba import njit
 
 from hevlib.powertrain.lookup import blend, cell
+from hevlib.powertrain.scaling import base_torque, scaled
 
 
 class MachineArrays(NamedTuple):
@@ -27,7 +28,7 @@ class MachineArrays(NamedTuple):
 @njit(cache=True, inline="always")
 def torque_limit(w: float, s: float, m: MachineArrays) -> float:
     i, f = cell(abs(w), 0.0, m.dw, m.t_max.shape[0])
-    return (m.t_max[i] + f * (m.t_max[i + 1] - m.t_max[i])) * s
+    return scaled(m.t_max[i] + f * (m.t_max[i + 1] - m.t_max[i]), s)
 
 
 @njit(cache=True, inline="always")
@@ -36,7 +37,7 @@ def _power_at(t: float, w: float, s: float, i: int, fx: float, m: MachineArrays)
     p_m = t * w
     if p_m == 0.0:
         return 0.0
-    j, fy = cell(abs(t) / s, 0.0, m.dt, m.eff.shape[1])
+    j, fy = cell(base_torque(abs(t), s), 0.0, m.dt, m.eff.shape[1])
     eta = blend(m.eff, i, j, fx, fy)
     return p_m / eta if p_m > 0.0 else p_m * eta
 
@@ -64,7 +65,7 @@ def torque_for_power(p_e: float, w: float, s: float, t_cap: float, m: MachineArr
         return sign * t
     # fixed point on t = |p_e| * eta / w (motoring) or |p_e| / (eta w) (generating); eta varies slowly
     for _ in range(3):
-        j, fy = cell(t / s, 0.0, m.dt, m.eff.shape[1])
+        j, fy = cell(base_torque(t, s), 0.0, m.dt, m.eff.shape[1])
         eta = blend(m.eff, i, j, fx, fy)
         t = abs(p_e) * eta / w if sign > 0.0 else abs(p_e) / (eta * w)
         if t > t_cap:
