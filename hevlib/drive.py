@@ -220,6 +220,23 @@ def _exhaust(o, temp, k, q, X, key, fuel, q_waste, w_e, hc, co, nox, v_avg, dt, 
 
 
 @njit(cache=True, inline="always")
+def _engine_step(o, temp, k, q, X, running, w_e, t_e, s_eng, E, c, v_avg, t, tr, record):
+    """One key-on step of the engine at (``w_e``, ``t_e``): fuel and engine-out rates from the hot maps times
+    the cold-engine factors of the block temperature (none while it does not run), its energy terms, then
+    the thermal nodes and the tailpipe (:func:`_exhaust`). Returns the fuel rate, g/s."""
+    fuel = hc = co = nox = 0.0
+    if running:
+        fuel, hc, co, nox = rates(w_e, max(t_e, 0.0), s_eng, E)
+        c_f, c_hc, c_co, c_nox = th_.cold_factors(temp[th_.N_BLOCK], X)
+        fuel, hc, co, nox = fuel * c_f, hc * c_hc, co * c_co, nox * c_nox
+    p_shaft = t_e * w_e
+    _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, c.dt)
+    q_waste = fuel * c.lhv_j_per_g - p_shaft
+    _exhaust(o, temp, k, q, X, True, fuel, q_waste, w_e, hc, co, nox, v_avg, c.dt, t, tr, record)
+    return fuel
+
+
+@njit(cache=True, inline="always")
 def _book_wheel(o, f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch):
     """Work at the wheels (driveline, friction brakes) against road loads, grade and inertia; for a
     force-limited step also the residual of its speed fixed point."""
@@ -418,20 +435,12 @@ def _hybrid_one(
         q = i_a * dt if i_a >= 0.0 else c.eta_c * i_a * dt
         soc -= q / cap
         p_chem = ocv * q / dt
-        # ---- engine
-        fuel = hc = co = nox = 0.0
+        # ---- engine, its heat and the exhaust; energy accounting (J)
         if st.running:
-            fuel, hc, co, nox = rates(st.w_e, st.t_e, d.s_eng, E)
-            c_f, c_hc, c_co, c_nox = th_.cold_factors(temp[th_.N_BLOCK], X)
-            fuel, hc, co, nox = fuel * c_f, hc * c_hc, co * c_co, nox * c_nox
             o[L.O_ENG_ON_STEPS] += 1.0
         elif st.w_e > 0.0:
             o[L.O_ENG_SPUN_STEPS] += 1.0  # spun by the gear set with its fuel cut
-        p_shaft = st.t_e * st.w_e
-        # ---- energy accounting (J)
-        _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, dt)
-        q_waste = fuel * c.lhv_j_per_g - p_shaft
-        _exhaust(o, temp, k_th, q_th, X, True, fuel, q_waste, st.w_e, hc, co, nox, v_avg, dt, t, tr, record)
+        fuel = _engine_step(o, temp, k_th, q_th, X, st.running, st.w_e, st.t_e, d.s_eng, E, c, v_avg, t, tr, record)
         o[L.O_E_BATT] += p_chem * dt
         o[L.O_E_LOSS_BATT] += (p_chem - st.p_batt) * dt
         o[L.O_E_LOSS_MOT] += (st.p_m_e - st.t_m * st.w_r) * dt
@@ -611,13 +620,7 @@ def _conventional_one(
             v_avg = v_req
             f_brake = f_req - st.f_del
         v_next = max(2.0 * v_avg - v0, 0.0)
-        fuel, hc, co, nox = rates(st.w_e, max(st.t_e, 0.0), d.s_eng, E)
-        c_f, c_hc, c_co, c_nox = th_.cold_factors(temp[th_.N_BLOCK], X)
-        fuel, hc, co, nox = fuel * c_f, hc * c_hc, co * c_co, nox * c_nox
-        p_shaft = st.t_e * st.w_e
-        _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, dt)
-        q_waste = fuel * c.lhv_j_per_g - p_shaft
-        _exhaust(o, temp, k_th, q_th, X, True, fuel, q_waste, st.w_e, hc, co, nox, v_avg, dt, t, tr, record)
+        fuel = _engine_step(o, temp, k_th, q_th, X, True, st.w_e, st.t_e, d.s_eng, E, c, v_avg, t, tr, record)
         o[L.O_E_ACC] += d.p_acc_w * dt
         o[L.O_E_LOSS_GB] += st.loss_gb_w * dt
         o[L.O_E_LOSS_CLUTCH] += st.loss_clutch_w * dt

@@ -355,8 +355,10 @@ class Simulator:
             ),
         )
         km = sim.min_distance_share * cycle.distance_m / 1e3
-        # a cold engine burns and emits more (ADVISOR's cold factors, largest at ambient or below)
-        cold = dict(zip(("fc", "hc", "co", "nox"), cold_factors(-1e9, self._thermal["hybrid"]), strict=True))
+        # a cold engine burns and emits more: ADVISOR's cold factors at their largest (lambda = 1, a block at
+        # the maps' own reference temperature or colder)
+        th = self._thermal["hybrid"]
+        cold = dict(zip(("fc", "hc", "co", "nox"), cold_factors(th.t_map_c, th), strict=True))
         out = {}
         for key, rate in (("fc", "fuel_g_s"), ("hc", "hc_g_s"), ("co", "co_g_s"), ("nox", "nox_g_s")):
             grams = max(float(np.max(getattr(e, rate))) * s for e, s in engines) * cycle.duration_s * cold[key]
@@ -475,8 +477,7 @@ class Simulator:
 
     def start_temperatures(self, cycle: Cycle, vehicle: Vehicle) -> np.ndarray:
         """The nine thermal nodes' start temperatures of ``vehicle`` on ``cycle``, degC."""
-        th = self.lib.thermal_conventional if vehicle == "conventional" else self.lib.thermal_hybrid
-        return start_temperatures(self.start_state(cycle), self.params.sim.ambient_c, th.thermostat_c)
+        return start_temperatures(self.start_state(cycle), self.params.sim.ambient_c, self._thermal[vehicle].t_stat_c)
 
     def light_off_temperature_c(self) -> float:
         """Monolith temperature (degC) at which the catalyst first converts ``LIGHT_OFF_HC_CONVERSION`` of

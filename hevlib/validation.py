@@ -261,7 +261,7 @@ def cold_start_window_s(sim, cycle: Cycle, traces: dict[str, pd.DataFrame] | Non
     or the whole cycle; None when the cycle does not start cold or the traces carry no temperatures."""
     if not traces or "t_cat_c" not in next(iter(traces.values())):
         return None
-    if getattr(sim, "start_state", lambda c: "cold")(cycle) != "cold":
+    if sim.start_state(cycle) != "cold":
         return None
     off = np.flatnonzero(~cycle.key_on[1:])
     return FTP_BAG1_S if len(off) and cycle.time_s[1:][off[0]] > FTP_BAG1_S else float(cycle.duration_s)
