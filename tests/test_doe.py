@@ -99,6 +99,9 @@ class FakeSimulator:
     def from_params(cls, params, components_dir="data/components"):
         return cls()
 
+    def close(self):  # a stage closes the simulators it made (their executor)
+        pass
+
     def run(self, X, cycle, vehicle="hybrid", batch_size=1000, progress=None):
         assert vehicle == "hybrid"
         type(self).calls += 1

@@ -68,6 +68,9 @@ class FakeSimulator:
     def from_params(cls, params, components_dir="data/components"):
         return cls()
 
+    def close(self):  # a stage closes the simulators it made (their executor)
+        pass
+
     def _row(self, x, cycle, vehicle):
         k = 1.0 if cycle.name == "ftp" else 0.8
         if vehicle == "conventional":
