@@ -167,8 +167,8 @@ def pack_state(soc: float, n_bat: float, B: BatteryArrays) -> tuple[float, float
 
 
 @njit(cache=True, inline="always")
-def pack_limits(soc: float, n_bat: float, c: DriveConfig, B: BatteryArrays) -> tuple[float, float]:
-    ocv, r_d, r_c = pack_state(soc, n_bat, B)
+def pack_power_limits(ocv: float, r_d: float, r_c: float, soc: float, n_bat: float, c: DriveConfig):
+    """(max discharge, max charge) terminal power of the pack in state (``ocv``, ``r_d``, ``r_c``) at ``soc``, W."""
     return power_limits(
         ocv,
         r_d,
@@ -183,6 +183,12 @@ def pack_limits(soc: float, n_bat: float, c: DriveConfig, B: BatteryArrays) -> t
         c.eta_c,
         c.dt,
     )
+
+
+@njit(cache=True, inline="always")
+def pack_limits(soc: float, n_bat: float, c: DriveConfig, B: BatteryArrays) -> tuple[float, float]:
+    ocv, r_d, r_c = pack_state(soc, n_bat, B)
+    return pack_power_limits(ocv, r_d, r_c, soc, n_bat, c)
 
 
 @njit(cache=True, inline="always")
@@ -367,20 +373,7 @@ def _hybrid_one(
         v_ref_next = v_ref[t + 1]
         v_tgt = min(v_ref_next, v_lim)
         ocv, r_d, r_c = pack_state(soc, n_bat, B)
-        p_dis, p_chg = power_limits(
-            ocv,
-            r_d,
-            r_c,
-            in_series(c.v_min_mod, n_bat),
-            in_series(c.v_max_mod, n_bat),
-            c.i_max_a,
-            soc,
-            c.soc_min,
-            c.soc_max,
-            cap,
-            c.eta_c,
-            dt,
-        )
+        p_dis, p_chg = pack_power_limits(ocv, r_d, r_c, soc, n_bat, c)
         stationary = v0 <= 1e-9 and v_tgt <= 1e-9
         if stationary and not key_on[t]:
             # prescribed key-off (e.g. the FTP soak): nothing runs, no accessory load

@@ -73,6 +73,7 @@ class DaskExecutor:
         self._client = None
         self._cluster = None
         self._scattered: dict[int, Any] = {}
+        self._kernel_threads: int | None = None  # per task, asked of the cluster once (_threads_per_worker)
 
     @property
     def client(self):
@@ -110,7 +111,9 @@ class DaskExecutor:
         if key not in self._scattered:
             self._scattered[key] = (payload, client.scatter(payload, broadcast=True, hash=False))
         remote = self._scattered[key][1]
-        n_threads = self._threads_per_worker()
+        if self._kernel_threads is None:
+            self._kernel_threads = self._threads_per_worker()
+        n_threads = self._kernel_threads
         futures = [
             client.submit(_threads_task, fn, remote, item, n_threads, pure=False, retries=TASK_RETRIES)
             for item in items
@@ -134,6 +137,7 @@ class DaskExecutor:
             self._cluster.close()
             self._cluster = None
         self._scattered.clear()
+        self._kernel_threads = None
 
 
 def executor_for(sim_params) -> LocalExecutor | DaskExecutor:
