@@ -193,8 +193,11 @@ def main() -> None:
         "numba_cold_compile": cold,
         "dask": dask_rows,
     }
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(report, indent=2) + "\n")
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.exists():  # keep the other benchmarks' entries (bench_study.py writes "study")
+        report = {**{k: v for k, v in json.loads(out.read_text()).items() if k not in report}, **report}
+    out.write_text(json.dumps(report, indent=2) + "\n")
 
 
 if __name__ == "__main__":

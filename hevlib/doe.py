@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -43,8 +43,8 @@ from hevlib.design import (
     RESPONSES,
     DesignSpace,
 )
-from hevlib.io import write_parquet
 from hevlib.params import EXECUTION_KEYS
+from hevlib.tables import write_parquet_batches
 
 L27_FILE = "data/raw/paper/l27_assignment.csv"
 METHODS = ("l27", "lhs", "both")
@@ -159,23 +159,39 @@ def doe_designs(
 
 
 # ------------------------------------------------------------------------------------- simulation
-def simulate_designs(
+#: Designs simulated per chunk, each written as one Parquet row group: a 10^6-design DOE holds one chunk's
+#: responses in memory at a time.
+CHUNK_DESIGNS = 50_000
+
+
+def simulated_chunks(
     sim,
     X: np.ndarray,
     source: np.ndarray | str,
     cycle,
     *,
     batch_size: int = 1000,
+    chunk: int = CHUNK_DESIGNS,
     progress: Callable[[int, int], None] | None = None,
-) -> pa.Table:
-    """Simulate the hybrid designs ``X`` on ``cycle`` in batches and return the DOE table.
-
-    ``sim`` is a :class:`hevlib.simulate.Simulator`; ``progress(n_done, n_total)`` is called after each
-    batch. The result follows :data:`DOE_SCHEMA` (no run metadata; see :func:`run_metadata`).
-    """
+) -> Iterator[pa.Table]:
+    """Simulate the hybrid designs ``X`` on ``cycle``, ``chunk`` designs at a time (each in batches of
+    ``batch_size`` on the simulator's executor), yielding each chunk's DOE table (:data:`DOE_SCHEMA`,
+    no run metadata). ``progress(n_done, n_total)`` counts designs over all chunks."""
     X = np.asarray(X, dtype=float)
-    responses = sim.run(X, cycle, vehicle="hybrid", batch_size=batch_size, progress=progress)
-    return doe_table(X, responses, source)
+    n = len(X)
+    source = np.broadcast_to(np.asarray(source, dtype=object), (n,))
+    for start in range(0, n, max(int(chunk), 1)):
+        stop = min(start + max(int(chunk), 1), n)
+        done = None if progress is None else (lambda k, _total, s=start: progress(s + k, n))
+        responses = sim.run(X[start:stop], cycle, vehicle="hybrid", batch_size=batch_size, progress=done)
+        yield doe_table(X[start:stop], responses, source[start:stop])
+
+
+def simulate_designs(sim, X: np.ndarray, source: np.ndarray | str, cycle, **kwargs) -> pa.Table:
+    """The whole DOE table of :func:`simulated_chunks` (same arguments; for sets that fit in memory:
+    the held-out set, tests)."""
+    chunks = list(simulated_chunks(sim, X, source, cycle, **kwargs))
+    return pa.concat_tables(chunks) if chunks else DOE_SCHEMA.empty_table()
 
 
 def doe_table(X: np.ndarray, responses: pd.DataFrame, source: np.ndarray | str) -> pa.Table:
@@ -254,8 +270,10 @@ def is_current(metadata: dict[str, str], params, **design: object) -> bool:
     ) == json.dumps(design, sort_keys=True, default=str)
 
 
-def write_doe(path: str | Path, table: pa.Table, metadata: dict[str, str]) -> None:
-    write_parquet(path, table, schema=DOE_SCHEMA, metadata=metadata)
+def write_doe(path: str | Path, table: pa.Table | Iterable[pa.Table], metadata: dict[str, str]) -> int:
+    """Write a DOE table, or the chunks of :func:`simulated_chunks` as they come (one row group each),
+    atomically with its run metadata; returns the number of designs written."""
+    return write_parquet_batches(path, [table] if isinstance(table, pa.Table) else table, DOE_SCHEMA, metadata)
 
 
 def read_doe(path: str | Path) -> tuple[pd.DataFrame, dict[str, str]]:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import polars as pl
 import pyarrow as pa
 import pyarrow.parquet as pq
 import yaml
@@ -71,15 +72,14 @@ def write_text(path: str | os.PathLike, text: str) -> None:
 
 def write_parquet(
     path: str | os.PathLike,
-    table: pd.DataFrame | pa.Table,
+    table: pd.DataFrame | pl.DataFrame | pl.LazyFrame | pa.Table,
     schema: pa.Schema | None = None,
     metadata: dict[str, str] | None = None,
 ) -> None:
     """Write a Parquet file with an explicit schema (columns must match it exactly)."""
-    if isinstance(table, pd.DataFrame):
-        table = pa.Table.from_pandas(table, schema=schema, preserve_index=False)
-    elif schema is not None:
-        table = table.cast(schema)
+    from hevlib.tables import to_arrow
+
+    table = to_arrow(table, schema)
     if metadata:
         meta = dict(table.schema.metadata or {})
         meta.update({k.encode(): str(v).encode() for k, v in metadata.items()})

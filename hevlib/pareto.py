@@ -24,15 +24,19 @@ The steps of SPEC section 9, each a pure function over tables or arrays:
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+import time
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+import polars as pl
 import pyarrow as pa
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, SENSE, gear_set_buildable
-from hevlib.indicators import Normalisation, hypervolume_mc
+from hevlib.indicators import Hypervolume, Normalisation, hypervolume
+from hevlib.params import OptimiseParams
+from hevlib.tables import Table, columns, lazy, matrix, n_rows
 
 SIM, PRED = "sim_", "pred_"
 #: Decimals the design variables are rounded to when looking for identical designs.
@@ -44,19 +48,19 @@ _SENSE_OF = dict(zip(OBJECTIVES, SENSE, strict=True))
 
 # ----------------------------------------------------------------------------------- dominance
 def nondominated_mask(F: np.ndarray) -> np.ndarray:
-    """Boolean mask of the rows of ``F`` (n, m; all minimised) that no other row dominates.
+    """Boolean mask of the rows of ``F`` (n, m; all minimised, finite) that no other row dominates
+    (moocore's ``is_nondominated``: dimension sweep for 2 and 3 objectives, a pairwise C loop beyond).
 
     Duplicated rows do not dominate each other, so all copies of a non-dominated point are kept.
     """
+    import moocore
+
     F = np.asarray(F, dtype=float)
-    n = F.shape[0]
-    keep = np.ones(n, dtype=bool)
-    for start in range(0, n, 512):  # blocks keep memory at O(512 * n * m)
-        block = F[start : start + 512]
-        le = np.all(F[None, :, :] <= block[:, None, :], axis=2)
-        lt = np.any(F[None, :, :] < block[:, None, :], axis=2)
-        keep[start : start + 512] = ~np.any(le & lt, axis=1)
-    return keep
+    if F.ndim != 2:
+        raise ValueError(f"non-dominated filter: expected an (n, m) objective matrix, got shape {F.shape}")
+    if len(F) == 0:
+        return np.zeros(0, dtype=bool)
+    return np.asarray(moocore.is_nondominated(F, keep_weakly=True), dtype=bool)
 
 
 def sense_of(objectives: Sequence[str]) -> np.ndarray:
@@ -71,56 +75,73 @@ def to_minimisation(Y: np.ndarray, objectives: Sequence[str] = OBJECTIVES) -> np
 
 
 def objective_matrix(
-    table: pd.DataFrame, objectives: Sequence[str] = OBJECTIVES, *, prefix: str = SIM, what: str = "designs"
+    table: Table, objectives: Sequence[str] = OBJECTIVES, *, prefix: str = SIM, what: str = "designs"
 ) -> np.ndarray:
-    """The (n, m) matrix of ``<prefix><objective>`` columns in minimisation form (maximised ones negated)."""
+    """The (n, m) matrix of ``<prefix><objective>`` columns in minimisation form (maximised ones negated);
+    only those columns of a lazy table are read (null -> NaN)."""
     cols = [f"{prefix}{k}" for k in objectives]
-    missing = [c for c in cols if c not in table.columns]
+    have = set(columns(table))
+    missing = [c for c in cols if c not in have]
     if missing:
         raise ValueError(f"{what}: missing objective column(s) {', '.join(missing)}")
-    return to_minimisation(table[cols].to_numpy(dtype=float), objectives)
+    return to_minimisation(matrix(table, cols), objectives)
 
 
 # ------------------------------------------------------------------------------------- merging
-def merge_fronts(fronts: Mapping[str, pd.DataFrame], objectives: Sequence[str] = OBJECTIVES) -> pd.DataFrame:
-    """Concatenate the fronts (``{algo: table}``, in order) and keep one row per distinct design.
+def merge_fronts(fronts: Mapping[str, Table], objectives: Sequence[str] = OBJECTIVES) -> pl.LazyFrame:
+    """Concatenate the fronts (``{algo: table}``, in order) and keep one row per distinct design, lazily.
 
     Returns the first row of every distinct design with ``design_id``, ``algo``, ``sources`` and
     ``n_sources`` in front, then the seven variables, then every other column (pred_/sim_ columns; a
-    column missing from one front is NaN there). The fronts' own flags (:data:`FRONT_FLAGS`) are
+    column missing from one front is null there). The fronts' own flags (:data:`FRONT_FLAGS`) are
     dropped: dominance and feasibility are recomputed over the merged set.
     """
     parts = []
     for algo, front in fronts.items():
         if "+" in algo or "-" in algo:
             raise ValueError(f"front {algo!r}: algorithm names may not contain '+' or '-'")
+        lf = lazy(front)
+        have = columns(lf)
         need = list(DESIGN_VARS) + [f"{SIM}{k}" for k in objectives]
-        missing = [c for c in need if c not in front.columns]
+        missing = [c for c in need if c not in have]
         if missing:
             raise ValueError(f"front {algo!r}: missing column(s) {', '.join(missing)}")
-        part = front.drop(columns=[c for c in (*FRONT_FLAGS, "algo") if c in front.columns])
-        part = part.reset_index(drop=True)
-        part.insert(0, "algo", algo)
-        part.insert(0, "source", [f"{algo}-{i}" for i in range(len(part))])
-        parts.append(part)
+        lf = lf.drop([c for c in (*FRONT_FLAGS, "algo", "source") if c in have]).with_row_index("__row")
+        parts.append(
+            lf.select(
+                pl.format(f"{algo}-{{}}", pl.col("__row")).alias("source"),
+                pl.lit(algo).alias("algo"),
+                pl.all().exclude("__row"),
+            )
+        )
     if not parts:
         raise ValueError("no fronts to merge")
-    allrows = pd.concat(parts, ignore_index=True)
-    X = allrows[list(DESIGN_VARS)].to_numpy(dtype=float)
-    if not np.all(np.isfinite(X)):
-        row = allrows.iloc[int(np.argmax(~np.all(np.isfinite(X), axis=1)))]
-        raise ValueError(f"front {row['algo']!r}: non-finite design variable in row {row['source']}")
-    key = pd.DataFrame(np.round(X, DEDUP_DECIMALS), columns=list(DESIGN_VARS))
-    # groups are numbered by first appearance, so every per-group series below is in merge order
-    group = key.groupby(list(DESIGN_VARS), sort=False).ngroup().to_numpy()
-    by = allrows.groupby(group, sort=True)
-    merged = allrows.loc[~pd.Series(group).duplicated().to_numpy()].reset_index(drop=True)
-    merged.insert(0, "design_id", merged.pop("source"))
-    merged["algo"] = by["algo"].agg(lambda s: "+".join(dict.fromkeys(s))).to_numpy()
-    merged.insert(2, "sources", by["source"].agg("+".join).to_numpy())
-    merged.insert(3, "n_sources", by.size().to_numpy().astype(np.int64))
-    rest = [c for c in merged.columns if c not in ("design_id", "algo", "sources", "n_sources", *DESIGN_VARS)]
-    return merged[["design_id", "algo", "sources", "n_sources", *DESIGN_VARS, *rest]]
+    allrows = pl.concat(parts, how="diagonal_relaxed")
+    bad = (
+        allrows.filter(~pl.all_horizontal(pl.col(v).cast(pl.Float64).is_finite().fill_null(False) for v in DESIGN_VARS))
+        .select("algo", "source")
+        .head(1)
+        .collect()
+    )
+    if len(bad):
+        raise ValueError(f"front {bad['algo'][0]!r}: non-finite design variable in row {bad['source'][0]}")
+    keys = [f"__key_{v}" for v in DESIGN_VARS]
+    rest = [c for c in allrows.collect_schema().names() if c not in ("source", "algo", *DESIGN_VARS)]
+    # groups in order of first appearance, rows within a group in input order: the first is the first source
+    return (
+        allrows.with_columns(
+            pl.col(v).cast(pl.Float64).round(DEDUP_DECIMALS).alias(k) for v, k in zip(DESIGN_VARS, keys, strict=True)
+        )
+        .group_by(keys, maintain_order=True)
+        .agg(
+            pl.col("source").first().alias("design_id"),
+            pl.col("algo").unique(maintain_order=True).str.join("+").alias("algo"),
+            pl.col("source").str.join("+").alias("sources"),
+            pl.len().cast(pl.Int64).alias("n_sources"),
+            *[pl.col(c).first() for c in (*DESIGN_VARS, *rest)],
+        )
+        .select("design_id", "algo", "sources", "n_sources", *DESIGN_VARS, *rest)
+    )
 
 
 def algo_names(algo: str) -> list[str]:
@@ -129,88 +150,109 @@ def algo_names(algo: str) -> list[str]:
 
 
 # ------------------------------------------------------------------------------------ screening
-def rule_gen_below_motor(table: pd.DataFrame) -> np.ndarray:
+def rule_gen_below_motor() -> pl.Expr:
     """Generator peak power strictly below motor peak power (``p_gen_kw < p_mot_kw``)."""
-    return table["p_gen_kw"].to_numpy(dtype=float) < table["p_mot_kw"].to_numpy(dtype=float)
+    return pl.col("p_gen_kw") < pl.col("p_mot_kw")
 
 
-def rule_speed_dev(table: pd.DataFrame, max_share: float) -> np.ndarray:
+def rule_speed_dev(max_share: float) -> pl.Expr:
     """Simulated share of the sizing cycle off the trace within ``max_share`` (NaN fails)."""
-    return table[f"{SIM}speed_dev"].to_numpy(dtype=float) <= max_share
+    return pl.col(f"{SIM}speed_dev").fill_nan(None) <= max_share
 
 
-def rule_not_stalled(table: pd.DataFrame) -> np.ndarray:
+def rule_not_stalled() -> pl.Expr:
     """The re-simulated design did not stall on the sizing cycle (a failed design never passes)."""
-    return ~table[f"{SIM}stalled"].to_numpy(dtype=bool)
+    return ~pl.col(f"{SIM}stalled").cast(pl.Boolean)
 
 
-def rule_mass(table: pd.DataFrame, max_kg: float) -> np.ndarray:
+def rule_mass(max_kg: float) -> pl.Expr:
     """Simulated test mass within ``max_kg`` (NaN fails)."""
-    return table[f"{SIM}m_veh"].to_numpy(dtype=float) <= max_kg
+    return pl.col(f"{SIM}m_veh").fill_nan(None) <= max_kg
 
 
-def rule_buildable_gear_set(table: pd.DataFrame) -> np.ndarray:
+def rule_buildable_gear_set() -> pl.Expr:
     """The planetary set can be built (:func:`hevlib.design.gear_set_buildable`)."""
-    n_r = np.round(table["n_r"].to_numpy(dtype=float)).astype(np.int64)
-    n_s = np.round(table["n_s"].to_numpy(dtype=float)).astype(np.int64)
-    return gear_set_buildable(n_r, n_s)
+    return pl.struct("n_r", "n_s").map_batches(
+        lambda s: pl.Series(
+            gear_set_buildable(
+                np.round(s.struct.field("n_r").cast(pl.Float64).to_numpy()).astype(np.int64),
+                np.round(s.struct.field("n_s").cast(pl.Float64).to_numpy()).astype(np.int64),
+            )
+        ),
+        return_dtype=pl.Boolean,
+    )
+
+
+def passing(table: Table, expr: pl.Expr) -> np.ndarray:
+    """(n,) bool: where the boolean expression holds on ``table`` (null fails); reads only its columns."""
+    return lazy(table).select(expr.fill_null(False).alias("ok")).collect().to_series().to_numpy().astype(bool)
 
 
 @dataclass(frozen=True)
 class ScreenRule:
-    """One screening rule: ``check(table)`` is True where a design passes."""
+    """One screening rule: ``expr`` (a polars expression) is True where a design passes."""
 
     name: str
     enabled: bool
     description: str
-    check: Callable[[pd.DataFrame], np.ndarray]
+    expr: pl.Expr
     limit: float | None = None
+
+    def check(self, table: Table) -> np.ndarray:
+        """(n,) bool pass mask on ``table``."""
+        return passing(table, self.expr)
 
 
 def screening_rules(screen) -> list[ScreenRule]:
     """The rules of ``params.screen`` (:class:`hevlib.params.ScreenParams`), in the order they are applied."""
     return [
-        ScreenRule("gen_below_motor", bool(screen.gen_below_motor), "p_gen_kw < p_mot_kw", rule_gen_below_motor),
+        ScreenRule("gen_below_motor", bool(screen.gen_below_motor), "p_gen_kw < p_mot_kw", rule_gen_below_motor()),
         ScreenRule(
-            "not_stalled", True, "not sim_stalled (stood still while the sizing cycle asked to move)", rule_not_stalled
+            "not_stalled",
+            True,
+            "not sim_stalled (stood still while the sizing cycle asked to move)",
+            rule_not_stalled(),
         ),
         ScreenRule(
             "speed_dev_max",
             True,
             f"sim_speed_dev <= {screen.speed_dev_max:g} (share of the cycle off the trace)",
-            lambda t: rule_speed_dev(t, screen.speed_dev_max),
+            rule_speed_dev(screen.speed_dev_max),
             float(screen.speed_dev_max),
         ),
         ScreenRule(
             "mass_max",
             True,
             f"sim_m_veh <= {screen.mass_max_kg:g} kg",
-            lambda t: rule_mass(t, screen.mass_max_kg),
+            rule_mass(screen.mass_max_kg),
             float(screen.mass_max_kg),
         ),
         ScreenRule(
             "buildable_gear_set",
             bool(screen.buildable_gear_set),
             "planet teeth (n_r-n_s)/2 whole and >= 9, (n_r+n_s) divisible by 4",
-            rule_buildable_gear_set,
+            rule_buildable_gear_set(),
         ),
     ]
 
 
 def apply_screening(
-    table: pd.DataFrame, rules: Sequence[ScreenRule], candidates: np.ndarray | None = None
+    table: Table, rules: Sequence[ScreenRule], candidates: np.ndarray | None = None
 ) -> tuple[np.ndarray, dict[str, np.ndarray], dict]:
-    """Evaluate every rule on ``table``; return (feasible mask, {name: pass mask}, report).
+    """Evaluate every rule on ``table`` (one pass over the columns the rules read); return (feasible mask,
+    {name: pass mask}, report).
 
     ``candidates`` (default: all rows) are the designs being screened; the report counts, among them,
     how many each rule fails on its own (``fails_alone``) and how many it removed when the enabled
     rules are applied in order (``removed_in_sequence``; 0 for a rule that is switched off).
     """
-    n = len(table)
+    if rules:
+        ok_all = lazy(table).select([r.expr.fill_null(False).alias(r.name) for r in rules]).collect()
+    n = len(ok_all) if rules else n_rows(table)
     cand = np.ones(n, dtype=bool) if candidates is None else np.asarray(candidates, dtype=bool)
     masks, report, alive = {}, {}, cand.copy()
     for rule in rules:
-        ok = np.asarray(rule.check(table), dtype=bool)
+        ok = ok_all[rule.name].to_numpy().astype(bool)
         masks[rule.name] = ok
         removed = int(np.sum(alive & ~ok)) if rule.enabled else 0
         if rule.enabled:
@@ -226,26 +268,28 @@ def apply_screening(
     return alive, masks, report
 
 
-def passes_screen(table: pd.DataFrame, screen) -> np.ndarray:
+def passes_screen(table: Table, screen) -> np.ndarray:
     """(n,) bool: rows (``sim_`` objectives and the design variables) that pass every enabled rule of
     ``params.screen``."""
     return apply_screening(table, screening_rules(screen))[0]
 
 
-def simulated_as_front(table: pd.DataFrame) -> pd.DataFrame:
-    """A table of simulated designs (DOE, held-out: unprefixed responses) with the ``sim_`` names a front uses."""
-    return table.rename(columns={k: f"{SIM}{k}" for k in RESPONSES if k in table.columns})
+def simulated_as_front(table: Table) -> Table:
+    """A table of simulated designs (DOE, held-out: unprefixed responses) with the ``sim_`` names a front
+    uses; the same kind of table back (a polars one lazily renamed, nothing read)."""
+    names = {k: f"{SIM}{k}" for k in RESPONSES if k in columns(table)}
+    return table.rename(columns=names) if isinstance(table, pd.DataFrame) else table.rename(names)
 
 
-def screened_normalisation(tables: Sequence[pd.DataFrame], screen) -> Normalisation:
+def screened_normalisation(tables: Sequence[Table], screen) -> Normalisation:
     """The hypervolume's normalisation: ideal and nadir (minimisation form) of the simulated designs of
     ``tables`` (``sim_`` columns) that pass the screen, so every objective spans the range of designs a
     user could pick (not of designs that barely move, which would squeeze fuel and emissions into a
     sliver near 0). Raises if no design passes."""
     F = []
     for t in tables:
-        ok = passes_screen(t, screen) & np.all(np.isfinite(objective_matrix(t, OBJECTIVES, what="table")), axis=1)
-        F.append(objective_matrix(t[ok], OBJECTIVES, what="table"))
+        Ft = objective_matrix(t, OBJECTIVES, what="table")
+        F.append(Ft[passes_screen(t, screen) & np.all(np.isfinite(Ft), axis=1)])
     F = np.vstack(F) if F else np.zeros((0, len(OBJECTIVES)))
     if len(F) == 0:
         raise ValueError("hypervolume normalisation: no simulated design passes the screen")
@@ -253,24 +297,73 @@ def screened_normalisation(tables: Sequence[pd.DataFrame], screen) -> Normalisat
 
 
 def screened_hypervolume(
-    table: pd.DataFrame, screen, norm: Normalisation, reference: float, n_samples: int, seed: int
-) -> tuple[float, float, int]:
-    """(hypervolume, its standard error, designs counted) of the screen-passing rows of a front (``sim_``
-    objectives; every row with finite objectives when ``screen`` is None) on ``norm``: the one
-    hypervolume every report uses."""
-    if len(table) == 0:
-        return 0.0, 0.0, 0
+    table: Table,
+    screen,
+    norm: Normalisation,
+    reference: float,
+    n_samples: int,
+    seed: int,
+    exact_max_points: int,
+) -> tuple[Hypervolume, int]:
+    """(hypervolume, designs counted) of the screen-passing rows of a front (``sim_`` objectives; every row
+    with finite objectives when ``screen`` is None) on ``norm``, by :func:`hevlib.indicators.hypervolume`."""
+    if n_rows(table) == 0:
+        return hypervolume(
+            np.zeros((0, len(OBJECTIVES))), reference, n_samples=n_samples, seed=seed, exact_max_points=exact_max_points
+        ), 0
     F = objective_matrix(table, OBJECTIVES, what="front")
     ok = np.all(np.isfinite(F), axis=1)
     if screen is not None:
         ok &= passes_screen(table, screen)
-    hv, se = hypervolume_mc(norm(F[ok]), reference, n_samples=n_samples, seed=seed) if ok.any() else (0.0, 0.0)
-    return hv, se, int(ok.sum())
+    hv = hypervolume(norm(F[ok]), reference, n_samples=n_samples, seed=seed, exact_max_points=exact_max_points)
+    return hv, int(ok.sum())
 
 
-def spread(table: pd.DataFrame, norm: Normalisation) -> dict[str, float]:
+@dataclass(frozen=True)
+class HvSettings:
+    """The one hypervolume of every source: simulated objectives of the designs that pass ``screen``
+    (``params.screen``; all designs when None), normalised by ``norm`` (ideal and nadir of screen-passing
+    simulated designs, :func:`screened_normalisation`), up to ``reference`` in every normalised objective;
+    exact up to ``exact_max_points`` non-dominated designs, else Monte Carlo with ``n_samples`` samples
+    seeded by ``seed`` (:func:`hevlib.indicators.hypervolume`)."""
+
+    norm: Normalisation
+    reference: float = OptimiseParams.model_fields["hv_reference"].default
+    n_samples: int = OptimiseParams.model_fields["hv_samples"].default
+    seed: int = OptimiseParams.model_fields["hv_seed"].default
+    screen: object | None = None  # params.screen; None counts every design with finite objectives
+    exact_max_points: int = OptimiseParams.model_fields["hv_exact_max_points"].default
+
+    @classmethod
+    def from_params(cls, norm: Normalisation, optimise, screen) -> HvSettings:
+        """The settings of ``params.optimise`` (``hv_*``) on ``norm``, screening by ``params.screen``."""
+        return cls(
+            norm, optimise.hv_reference, optimise.hv_samples, optimise.hv_seed, screen, optimise.hv_exact_max_points
+        )
+
+    def of(self, table: Table) -> tuple[Hypervolume, int]:
+        """(hypervolume, designs counted) of a front table (``sim_`` columns)."""
+        return screened_hypervolume(
+            table, self.screen, self.norm, self.reference, self.n_samples, self.seed, self.exact_max_points
+        )
+
+    def describe(self) -> dict:
+        return {
+            "space": "simulated objectives of screen-passing designs, minimisation form, (F - ideal) / (nadir - ideal)",
+            "function": "hevlib.indicators.hypervolume",
+            "reference": self.reference,
+            "exact_max_points": self.exact_max_points,
+            "exact": "moocore.hypervolume, when at most exact_max_points non-dominated designs lie below the reference",
+            "fallback": "Monte Carlo: n_samples seeded uniform samples in [min(F), reference], binomial standard error",
+            "n_samples": self.n_samples,
+            "seed": self.seed,
+            "normalisation": normalisation_dict(self.norm),
+        }
+
+
+def spread(table: Table, norm: Normalisation) -> dict[str, float]:
     """Per objective, the range of a front's simulated values in normalised units (0 = collapsed)."""
-    F = norm(objective_matrix(table, OBJECTIVES, what="front")) if len(table) else np.zeros((0, len(OBJECTIVES)))
+    F = norm(objective_matrix(table, OBJECTIVES, what="front"))
     F = F[np.all(np.isfinite(F), axis=1)]
     return {k: (float(np.ptp(F[:, j])) if len(F) else 0.0) for j, k in enumerate(OBJECTIVES)}
 
@@ -293,32 +386,47 @@ def normalisation_from_dict(data: dict) -> Normalisation:
 
 
 def source_summary(
-    fronts: Mapping[str, pd.DataFrame], reports: Mapping[str, dict], merged: pd.DataFrame, screen, optimise
-) -> dict:
-    """``reports/pareto.json`` additions: the hypervolume normalisation (ideal and nadir of the
-    screen-passing designs of every source's final front: fixed for this run), its reference point and,
-    per source, its hypervolume, ratio to the oracle's, simulations used, spread and share of the picks."""
+    fronts: Mapping[str, Table], reports: Mapping[str, dict], merged: Table, screen, optimise
+) -> tuple[dict, dict[str, float]]:
+    """``reports/pareto.json`` additions and the hypervolumes' wall times (s; machine-dependent, for the
+    logs). The additions: the hypervolume normalisation (ideal and nadir of the screen-passing designs of
+    every source's final front: fixed for this run), its reference point, how each source's hypervolume
+    was computed (exact or Monte Carlo, :func:`hevlib.indicators.hypervolume`, with its points, samples
+    and error) and, per source, its hypervolume, ratio to the oracle's, simulations used, spread and
+    share of the picks."""
     norm = screened_normalisation(list(fronts.values()), screen)
-    ref, n, seed = optimise.hv_reference, optimise.hv_samples, optimise.hv_seed
-    hv = {a: screened_hypervolume(t, screen, norm, ref, n, seed) for a, t in fronts.items()}
-    oracle_hv = hv["oracle"][0] if "oracle" in hv else None
-    picked = merged.loc[merged["picked"], "algo"] if "picked" in merged else pd.Series(dtype=str)
-    n_picked = max(len(picked), 1)
+    settings = HvSettings.from_params(norm, optimise, screen)
+    hv = {a: settings.of(t) for a, t in fronts.items()}
+    oracle_hv = hv["oracle"][0].value if "oracle" in hv else None
+    picked_algos = lazy(merged).filter(pl.col("picked")) if "picked" in columns(merged) else None
+    n_by_algo = _count(picked_algos, list(fronts)) if picked_algos is not None else dict.fromkeys(fronts, 0)
+    n_picked = max(n_rows(picked_algos) if picked_algos is not None else 0, 1)
     sources = {}
     for a, t in fronts.items():
-        n_a = int(sum(a in algo_names(g) for g in picked))
+        n_a = n_by_algo[a]
+        h, n_counted = hv[a]
         sources[a] = {
-            "hypervolume": hv[a][0],
-            "hypervolume_se": hv[a][1],
-            "hypervolume_designs": hv[a][2],
-            "hv_ratio_to_oracle": hv[a][0] / oracle_hv if oracle_hv else None,
+            "hypervolume": h.value,
+            "hypervolume_se": h.se,
+            "hypervolume_method": h.method,
+            "hypervolume_points": h.n_points,
+            "hypervolume_designs": n_counted,
+            "hv_ratio_to_oracle": h.value / oracle_hv if oracle_hv else None,
             "n_simulations": reports[a].get("n_simulations"),
-            "front_size": int(len(t)),
+            "front_size": n_rows(t),
             "picked": n_a,
             "picked_share": n_a / n_picked,
             "spread": spread(t, norm),
         }
-    return {"hv_reference": ref, "normalisation": normalisation_dict(norm), "sources": sources}
+    hv_report = {**settings.describe(), "choice": {a: h.describe() for a, (h, _) in hv.items()}}
+    hv_report.pop("normalisation")
+    wall = {a: h.wall_s for a, (h, _) in hv.items()}
+    return {
+        "hv_reference": settings.reference,
+        "normalisation": normalisation_dict(norm),
+        "hypervolume": hv_report,
+        "sources": sources,
+    }, wall
 
 
 # ------------------------------------------------------------------------------ rank and pick
@@ -374,34 +482,65 @@ def pick_diverse(F_norm: np.ndarray, k: int, start: int = 0) -> np.ndarray:
 
 
 # -------------------------------------------------------------------------------- the stage
+class _Clock:
+    """Wall seconds since the previous call, stored under each step's name (nothing when ``into`` is None)."""
+
+    def __init__(self, into: dict[str, float] | None):
+        self.into, self.t = into, time.perf_counter()
+
+    def __call__(self, step: str) -> None:
+        now = time.perf_counter()
+        if self.into is not None:
+            self.into[step] = now - self.t
+        self.t = now
+
+
 @dataclass
 class ParetoResult:
-    """Everything the ``pareto`` stage writes: the merged table, the picked designs, the summary."""
+    """Everything the ``pareto`` stage writes: the merged table, the picked designs (polars), the summary."""
 
-    merged: pd.DataFrame
-    selected: pd.DataFrame
+    merged: pl.DataFrame
+    selected: pl.DataFrame
     summary: dict = field(default_factory=dict)
 
 
-def _share(algos: pd.Series, names: Sequence[str]) -> dict[str, float]:
-    n = len(algos)
-    return {a: (float(sum(a in algo_names(s) for s in algos)) / n if n else 0.0) for a in names}
+def _count(rows: Table, names: Sequence[str]) -> dict[str, int]:
+    """Per algorithm, the rows of ``rows`` it found (``algo`` lists every algorithm of a merged design)."""
+    algos = pl.col("algo").str.split("+")
+    counts = lazy(rows).select([algos.list.contains(a).sum().alias(a) for a in names]).collect()
+    return {a: int(counts[a][0] or 0) for a in names}
 
 
-def _count(algos: pd.Series, names: Sequence[str]) -> dict[str, int]:
-    return {a: int(sum(a in algo_names(s) for s in algos)) for a in names}
+def _share(rows: Table, names: Sequence[str]) -> dict[str, float]:
+    n = n_rows(rows)
+    return {a: (c / n if n else 0.0) for a, c in _count(rows, names).items()}
 
 
-def select_designs(fronts: Mapping[str, pd.DataFrame], screen, objectives: Sequence[str] = OBJECTIVES) -> ParetoResult:
-    """Merge, filter, screen, rank, keep and pick (module docstring); ``screen`` is ``params.screen``."""
+def select_designs(
+    fronts: Mapping[str, Table],
+    screen,
+    objectives: Sequence[str] = OBJECTIVES,
+    *,
+    timings: dict[str, float] | None = None,
+) -> ParetoResult:
+    """Merge, filter, screen, rank, keep and pick (module docstring); ``screen`` is ``params.screen``.
+
+    ``fronts`` may be polars (lazy: a scan of Parquet parts) or pandas tables; the merged table is
+    collected once (every column of the distinct designs), the objectives are read from it as one float
+    matrix for the non-dominated filter and the ranking. ``timings``, when given, receives the wall
+    seconds of each step (``merge``, ``nondominated``, ``screen``, ``rank_pick``, ``summary``)."""
+    clock = _Clock(timings)
     names = list(fronts)
-    n_in = {a: len(f) for a, f in fronts.items()}
-    merged = merge_fronts(fronts, objectives)
+    n_in = {a: n_rows(f) for a, f in fronts.items()}
+    merged = merge_fronts(fronts, objectives).collect()
+    clock("merge")
     F = objective_matrix(merged, objectives, what="merged fronts")
     finite = np.all(np.isfinite(F), axis=1)
     nondom = np.zeros(len(merged), dtype=bool)
     nondom[finite] = nondominated_mask(F[finite])
+    clock("nondominated")
     feasible, masks, rule_report = apply_screening(merged, screening_rules(screen), candidates=nondom)
+    clock("screen")
 
     distance = np.full(len(merged), np.nan)
     rank = np.full(len(merged), -1, dtype=np.int64)
@@ -419,16 +558,16 @@ def select_designs(fronts: Mapping[str, pd.DataFrame], screen, objectives: Seque
     picked = np.zeros(len(merged), dtype=bool)
     picked[idx_kept[local]] = True
 
-    merged = merged.copy()
-    merged["finite"] = finite
-    merged["nondominated"] = nondom
-    for name, ok in masks.items():
-        merged[f"pass_{name}"] = ok
-    merged["feasible"] = feasible
-    merged["ideal_distance"] = distance
-    merged["rank"] = rank
-    merged["kept"] = kept
-    merged["picked"] = picked
+    merged = merged.with_columns(
+        pl.Series("finite", finite),
+        pl.Series("nondominated", nondom),
+        *[pl.Series(f"pass_{name}", ok) for name, ok in masks.items()],
+        pl.Series("feasible", feasible),
+        pl.Series("ideal_distance", distance).fill_nan(None),
+        pl.Series("rank", rank),
+        pl.Series("kept", kept),
+        pl.Series("picked", picked),
+    )
 
     sel_cols = [
         "design_id",
@@ -440,18 +579,27 @@ def select_designs(fronts: Mapping[str, pd.DataFrame], screen, objectives: Seque
         *[f"{SIM}{k}" for k in objectives],
         *[c for c in merged.columns if c.startswith(PRED)],
     ]
-    selected = merged.loc[picked, sel_cols].sort_values("rank", kind="stable").reset_index(drop=True)
+    selected = merged.filter(pl.col("picked")).select(sel_cols).sort("rank", maintain_order=True)
+    clock("rank_pick")
 
     notes = []
     if idx_feas.size < screen.n_keep:
         notes.append(f"only {idx_feas.size} feasible designs, fewer than n_keep={screen.n_keep}: all kept")
     if idx_kept.size < screen.n_pick:
         notes.append(f"only {idx_kept.size} kept designs, fewer than n_pick={screen.n_pick}: all picked")
-    n_rows = int(sum(n_in.values()))
+    n_rows_in = int(sum(n_in.values()))
+    subsets = {
+        "merged": merged,
+        "nondominated": merged.filter(pl.col("nondominated")),
+        "feasible": merged.filter(pl.col("feasible")),
+        "kept": merged.filter(pl.col("kept")),
+        "picked": merged.filter(pl.col("picked")),
+    }
+    counts = {what: _count(rows, names) for what, rows in subsets.items()}
     summary = {
         "counts": {
-            "input": n_rows,
-            "duplicates_removed": n_rows - len(merged),
+            "input": n_rows_in,
+            "duplicates_removed": n_rows_in - len(merged),
             "merged": len(merged),
             "non_finite": int((~finite).sum()),
             "nondominated": int(nondom.sum()),
@@ -460,20 +608,10 @@ def select_designs(fronts: Mapping[str, pd.DataFrame], screen, objectives: Seque
             "picked": int(picked.sum()),
         },
         "screen": rule_report,
-        "by_algo": {
-            a: {
-                "input": n_in[a],
-                "merged": _count(merged["algo"], names)[a],
-                "nondominated": _count(merged.loc[nondom, "algo"], names)[a],
-                "feasible": _count(merged.loc[feasible, "algo"], names)[a],
-                "kept": _count(merged.loc[kept, "algo"], names)[a],
-                "picked": _count(merged.loc[picked, "algo"], names)[a],
-            }
-            for a in names
-        },
+        "by_algo": {a: {"input": n_in[a], **{what: counts[what][a] for what in subsets}} for a in names},
         "shared_designs": int((merged["n_sources"] > 1).sum()),
-        "kept_share": _share(merged.loc[kept, "algo"], names),
-        "picked_share": _share(merged.loc[picked, "algo"], names),
+        "kept_share": _share(subsets["kept"], names),
+        "picked_share": _share(subsets["picked"], names),
         "selection": {
             "rank_rule": "euclidean distance to the ideal point, objectives min-max normalised over the feasible set",
             "n_keep": int(screen.n_keep),
@@ -483,21 +621,21 @@ def select_designs(fronts: Mapping[str, pd.DataFrame], screen, objectives: Seque
         },
         "notes": notes,
     }
+    clock("summary")
     return ParetoResult(merged=merged, selected=selected, summary=summary)
 
 
 # ---------------------------------------------------------------------------------- schemas
-def table_schema(table: pd.DataFrame) -> pa.Schema:
+def table_schema(table: Table) -> pa.Schema:
     """Explicit schema for the merged / selected tables: id strings, int64 for integer columns (counters,
     rank, integer design variables as the fronts store them), bool masks, float64 for the rest."""
     fields = []
-    for col in table.columns:
-        dtype = table[col].dtype
+    for col, dtype in lazy(table).collect_schema().items():
         if col in ("design_id", "algo", "sources"):
             fields.append(pa.field(col, pa.string(), nullable=False))
-        elif pd.api.types.is_bool_dtype(dtype):
+        elif dtype == pl.Boolean:
             fields.append(pa.field(col, pa.bool_(), nullable=False))
-        elif pd.api.types.is_integer_dtype(dtype):
+        elif dtype.is_integer():
             fields.append(pa.field(col, pa.int64(), nullable=False))
         else:
             fields.append(pa.field(col, pa.float64()))
@@ -516,6 +654,9 @@ __all__ = [
     "rule_mass",
     "rule_buildable_gear_set",
     "ScreenRule",
+    "passing",
+    "HvSettings",
+    "screened_hypervolume",
     "screening_rules",
     "apply_screening",
     "normalise",

@@ -120,17 +120,32 @@ def _pareto_section(pareto: Mapping) -> list[str]:
         out += [
             "",
             "Sources: hypervolume of each final front's screen-passing designs (simulated objectives, "
-            f"normalised by their ideal and nadir over all sources, reference {pareto['hv_reference']:g}), "
+            f"normalised by their ideal and nadir over all sources, reference {pareto['hv_reference']:g}; "
+            "exact up to "
+            f"{pareto.get('hypervolume', {}).get('exact_max_points', 'n/a')} non-dominated designs, beyond that "
+            "Monte Carlo with its standard error), "
             "against the oracle's (the optimiser with the simulator in the loop), with every simulation each "
             "source used (the DOE included for the surrogate-assisted ones):",
             "",
             markdown_table(
-                ["source", "simulations", "hypervolume", "ratio to oracle", "front", "picked", "share of picks"],
+                [
+                    "source",
+                    "simulations",
+                    "hypervolume",
+                    "± (1 s.e.)",
+                    "method",
+                    "ratio to oracle",
+                    "front",
+                    "picked",
+                    "share of picks",
+                ],
                 [
                     [
                         a,
                         v["n_simulations"],
                         v["hypervolume"],
+                        v.get("hypervolume_se"),
+                        v.get("hypervolume_method", "n/a"),
                         v["hv_ratio_to_oracle"],
                         v["front_size"],
                         v["picked"],

@@ -23,11 +23,10 @@ def doe_stage(params: str = PARAMS_OPTION) -> None:
     p = cfg.doe
     X, source = doe.doe_designs(p.method, p.n_lhs, p.seed, cfg.design_space.space(), p.l27_file)
     sim, cycle = sizing_setup(cfg)
-    with progress_callback(f"doe: {len(X)} designs on {cycle.name}") as cb:
-        table = doe.simulate_designs(sim, X, source, cycle, batch_size=p.batch_size, progress=cb)
     meta = doe.run_metadata(cycle, cfg, **doe.doe_record(p))
-    summary = doe.doe_summary(table.to_pandas(), meta)
-    doe.write_doe(DOE, table, meta)
+    with progress_callback(f"doe: {len(X)} designs on {cycle.name}") as cb:  # written chunk by chunk
+        doe.write_doe(DOE, doe.simulated_chunks(sim, X, source, cycle, batch_size=p.batch_size, progress=cb), meta)
+    summary = doe.doe_summary(doe.read_doe(DOE)[0], meta)
     write_json(REPORT, summary)
     typer.echo(
         f"doe: {summary['n_designs']} designs {summary['by_source']} on {cycle.name}, "

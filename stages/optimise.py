@@ -75,7 +75,7 @@ def optimise_stage(
     doe_df = read_table(DOE)
 
     def hv_settings(norm):
-        return HvSettings(norm, o.hv_reference, o.hv_samples, o.hv_seed, screen=cfg.screen)
+        return HvSettings.from_params(norm, o, cfg.screen)
 
     if source == "oracle":
         settings = o.oracle

@@ -5,10 +5,13 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from hevlib.io import read_table, write_json, write_parquet, write_text
+import polars as pl
+
+from hevlib.io import write_json, write_parquet, write_text
 from hevlib.pareto import select_designs, source_summary, table_schema
 from hevlib.plots import save_figure
 from hevlib.plots.pareto import distributions_figure, infill_figure, tradeoff_data, tradeoffs_figure
+from hevlib.tables import scan
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, stage
 
@@ -19,6 +22,7 @@ METRICS = Path("reports/pareto.json")
 PLOTS_DIR = Path("reports/plots/pareto")
 REPORTS_DIR = Path("reports")
 PLOT_DATA_DIR = Path("reports/pareto_tradeoffs")
+LOGS_DIR = Path("logs")  # machine-dependent figures (git-ignored, not metrics)
 
 
 @app.command("pareto")
@@ -30,13 +34,14 @@ def pareto(params_path: str = PARAMS_OPTION) -> None:
         raise ValueError("params.yaml: optimise.sources: needed to know which fronts to merge")
     o = params.optimise
     algos = list(o.sources)
-    tables = {a: read_table(FRONTS_DIR / f"{a}.parquet") for a in algos}
+    tables = {a: scan(FRONTS_DIR / f"{a}.parquet") for a in algos}
     reports = {a: json.loads((REPORTS_DIR / f"optimise_{a}.json").read_text()) for a in algos}
     # a source's front is its last round's rows (earlier rounds are the infill history)
-    fronts = {a: t[t["round"] == t["round"].max()].drop(columns="round") for a, t in tables.items()}
+    fronts = {a: t.filter(pl.col("round") == pl.col("round").max()).drop("round").collect() for a, t in tables.items()}
     result = select_designs(fronts, params.screen)
-    result.summary.update(source_summary(fronts, reports, result.merged, params.screen, o))
-    kept = result.merged[result.merged["kept"]]
+    additions, hv_wall_s = source_summary(fronts, reports, result.merged, params.screen, o)
+    result.summary.update(additions)
+    kept = result.merged.filter(pl.col("kept")).to_pandas()  # matplotlib's edge
     figures = {
         "tradeoffs.png": tradeoffs_figure(kept, algos),
         "distributions.png": distributions_figure(kept, algos),
@@ -47,6 +52,7 @@ def pareto(params_path: str = PARAMS_OPTION) -> None:
     write_parquet(MERGED, result.merged, table_schema(result.merged))
     write_parquet(SELECTED, result.selected, table_schema(result.selected))
     write_json(METRICS, result.summary)
+    write_json(LOGS_DIR / "pareto.json", {"hypervolume_wall_s": hv_wall_s})  # wall times: not a metric
     for name, fig in figures.items():
         save_figure(fig, PLOTS_DIR / name)
     for a, text in plot_data.items():

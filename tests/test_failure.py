@@ -224,9 +224,10 @@ def test_stalled_designs_never_reach_a_front_table_or_the_picks(sim, cycles):
         update={"speed_dev_max": 1.0, "n_keep": 2, "n_pick": 1, "gen_below_motor": False, "buildable_gear_set": False}
     )
     res = select_designs({"nsga3": table}, screen)
-    stalled_ids = set(res.merged.loc[res.merged["sim_stalled"], "design_id"])
+    merged = res.merged.to_pandas()
+    stalled_ids = set(merged.loc[merged["sim_stalled"], "design_id"])
     assert len(stalled_ids) == 1 and not stalled_ids & set(res.selected["design_id"])
-    assert not res.merged.loc[res.merged["kept"], "sim_stalled"].any() and len(res.selected) == 1
+    assert not merged.loc[merged["kept"], "sim_stalled"].any() and len(res.selected) == 1
     assert problem.constraint_names == ["mass"]
 
 

@@ -72,19 +72,21 @@ def test_the_report_hypervolume_is_of_simulated_not_predicted_objectives():
     """Computing it from the surrogate's predictions must fail this test: the stand-in's error is large."""
     hv = _hv()
     res = optimise_and_resimulate(_make_problem(AnalyticSurrogate()), "nsga3", SMALL["nsga3"], stand_in_simulate, hv)
-    sim_hv, _, n = screened_hypervolume(res.table, SCREEN, hv.norm, hv.reference, hv.n_samples, hv.seed)
+    sim_hv, n = hv.of(res.table)
     pred = res.table.assign(**{f"sim_{k}": res.table[f"pred_{k}"] for k in OBJECTIVES})
-    pred_hv, _, _ = screened_hypervolume(pred, SCREEN, hv.norm, hv.reference, hv.n_samples, hv.seed)
-    assert res.report["hypervolume"] == sim_hv and res.report["hypervolume_designs"] == n > 0
-    assert abs(pred_hv - sim_hv) > 5 * res.report["hypervolume_se"]
-    assert res.report["hypervolume_pred"] == pred_hv
+    pred_hv, _ = hv.of(pred)
+    assert res.report["hypervolume"] == sim_hv.value and res.report["hypervolume_designs"] == n > 0
+    assert res.report["hypervolume_method"] == sim_hv.method
+    assert abs(pred_hv.value - sim_hv.value) > 5 * max(sim_hv.se, 1e-3 * sim_hv.value)
+    assert res.report["hypervolume_pred"] == pred_hv.value
 
 
 def test_only_screen_passing_designs_count_and_the_normalisation_comes_from_them():
     hv = _hv()
     res = optimise_and_resimulate(_make_problem(AnalyticSurrogate()), "nsga3", SMALL["nsga3"], stand_in_simulate, hv)
     strict = SCREEN.model_copy(update={"speed_dev_max": 1e-9})
-    assert screened_hypervolume(res.table, strict, hv.norm, 1.1, 1000, 0) == (0.0, 0.0, 0)
+    empty, n = screened_hypervolume(res.table, strict, hv.norm, 1.1, 1000, 0, 100)
+    assert (empty.value, empty.se, empty.method, n) == (0.0, 0.0, "empty", 0)
     table = res.table.copy()
     table.loc[table.index[0], "sim_speed_dev"] = 5.0  # fails the screen: must not widen the range
     norm = screened_normalisation([table], SCREEN)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import polars as pl
 import pytest
 from typer.testing import CliRunner
 
@@ -20,6 +21,7 @@ from hevlib.pareto import (
     nondominated_mask,
     normalise,
     objective_matrix,
+    passing,
     pick_diverse,
     pick_random,
     rank_by,
@@ -111,7 +113,7 @@ def test_merge_keeps_one_row_per_design_and_every_algorithm():
     b.loc[2, "p_eng_kw"] = a.loc[3, "p_eng_kw"] + 1e-12  # equal after rounding
     b.loc[2, "pred_fc"] = 99.0  # the other surrogate's prediction
     a2 = pd.concat([a, a.iloc[[0]]], ignore_index=True)  # a duplicate within one front
-    merged = merge_fronts({"nsga3": a2, "moead": b})
+    merged = merge_fronts({"nsga3": a2, "moead": b}).collect().to_pandas()
     assert len(merged) == 6 + 4 - 1
     assert merged["design_id"].is_unique
     row = merged[merged["design_id"] == "nsga3-3"].iloc[0]
@@ -148,13 +150,16 @@ def screening_table() -> pd.DataFrame:
 
 def test_each_rule_flags_exactly_its_violators():
     t = screening_table()
-    assert list(~rule_gen_below_motor(t)) == [False, True, True, False, False, False]
-    assert list(~rule_speed_dev(t, 0.4)) == [False, False, True, True, False, False]
-    assert list(~rule_mass(t, 1195.0)) == [False, False, False, True, True, False]
-    assert list(~rule_buildable_gear_set(t)) == [False, True, True, False, True, False]
+    assert list(~passing(t, rule_gen_below_motor())) == [False, True, True, False, False, False]
+    assert list(~passing(t, rule_speed_dev(0.4))) == [False, False, True, True, False, False]
+    assert list(~passing(t, rule_mass(1195.0))) == [False, False, False, True, True, False]
+    assert list(~passing(t, rule_buildable_gear_set())) == [False, True, True, False, True, False]
     np.testing.assert_array_equal(
-        rule_buildable_gear_set(t), gear_set_buildable(t["n_r"].astype(int), t["n_s"].astype(int))
+        passing(t, rule_buildable_gear_set()), gear_set_buildable(t["n_r"].astype(int), t["n_s"].astype(int))
     )
+    # the same masks on a polars table, lazily, and with a missing value as null rather than NaN
+    lf = pl.from_pandas(t).lazy().with_columns(pl.col("sim_speed_dev").fill_nan(None))
+    np.testing.assert_array_equal(passing(lf, rule_speed_dev(0.4)), passing(t, rule_speed_dev(0.4)))
 
 
 @pytest.mark.parametrize("rule", ["gen_below_motor", "not_stalled", "speed_dev_max", "mass_max", "buildable_gear_set"])
@@ -248,7 +253,7 @@ def test_select_designs_keeps_the_best_ranked_and_picks_among_them():
     fronts = _fronts()
     fronts["moead"].iloc[0, :] = fronts["nsga3"].iloc[0, :].to_numpy()  # one shared design
     res = select_designs(fronts, screen)
-    m, c = res.merged, res.summary["counts"]
+    m, c = res.merged.to_pandas(), res.summary["counts"]
     assert c["input"] == 270 and c["merged"] == 269 and c["duplicates_removed"] == 1
     assert c["kept"] == 20 and c["picked"] == 6
     assert (
@@ -293,7 +298,8 @@ def test_non_finite_objectives_are_dropped_before_dominance():
     front = synthetic_front(20, 6)
     front.loc[3, "sim_fc"] = np.nan
     res = select_designs({"moga": front}, ScreenParams(n_keep=5, n_pick=2, speed_dev_max=1.0))
-    row = res.merged[res.merged["design_id"] == "moga-3"].iloc[0]
+    merged = res.merged.to_pandas()
+    row = merged[merged["design_id"] == "moga-3"].iloc[0]
     assert not row["finite"] and not row["nondominated"] and res.summary["counts"]["non_finite"] == 1
 
 

@@ -267,5 +267,5 @@ def test_summary_says_so_when_nothing_passed_screening():
     assert s["improvement"]["nsga3"]["vs_prius"]["fc"] is None and s["best_design"] is None
     res = select_designs({"nsga3": synthetic_front(20, 1)}, ScreenParams(speed_dev_max=1e-6))
     assert res.summary["counts"]["picked"] == 0
-    text = build_summary(res.summary, s, table, res.selected, {})
+    text = build_summary(res.summary, s, table, res.selected.to_pandas(), {})
     assert "No design passed the screening" in text and "`speed_dev_max`" in text

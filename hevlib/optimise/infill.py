@@ -159,6 +159,7 @@ def _round_entry(r: int, n_sims: int, report: dict, hv_oracle: float | None) -> 
         "front_size": report["front_size"],
         "hypervolume": report["hypervolume"],
         "hypervolume_se": report["hypervolume_se"],
+        "hypervolume_method": report["hypervolume_method"],
         "hv_ratio_to_oracle": _ratio(report["hypervolume"], hv_oracle),
     }
 

@@ -2,43 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import pandas as pd
 
 from hevlib.design import OBJECTIVES
-from hevlib.indicators import Normalisation
 from hevlib.optimise.algorithms import Front
 from hevlib.params import AlgoParams
-from hevlib.pareto import normalisation_dict, screened_hypervolume, spread
-
-
-@dataclass(frozen=True)
-class HvSettings:
-    """The one hypervolume of every source: simulated objectives of the designs that pass ``screen``
-    (``params.screen``; all designs when None), normalised by ``norm`` (ideal and nadir of screen-passing
-    simulated designs, :func:`hevlib.pareto.screened_normalisation`), up to ``reference`` in every
-    normalised objective, Monte Carlo with ``n_samples`` seeded samples."""
-
-    norm: Normalisation
-    reference: float = 1.1
-    n_samples: int = 200_000
-    seed: int = 7
-    screen: object | None = None  # params.screen; None counts every design with finite objectives
-
-    def of(self, table: pd.DataFrame) -> tuple[float, float, int]:
-        """(hypervolume, standard error, designs counted) of a front table (``sim_`` columns)."""
-        return screened_hypervolume(table, self.screen, self.norm, self.reference, self.n_samples, self.seed)
-
-    def describe(self) -> dict:
-        return {
-            "space": "simulated objectives of screen-passing designs, minimisation form, (F - ideal) / (nadir - ideal)",
-            "reference": self.reference,
-            "n_samples": self.n_samples,
-            "seed": self.seed,
-            "normalisation": normalisation_dict(self.norm),
-        }
+from hevlib.pareto import HvSettings, spread
 
 
 def surrogate_error(pred: np.ndarray, sim: np.ndarray, span: np.ndarray | None = None) -> dict[str, dict]:
@@ -75,9 +45,9 @@ def front_report(
     sim_Y = table[[f"sim_{k}" for k in OBJECTIVES]].to_numpy(dtype=float)
     pred_Y = table[[f"pred_{k}" for k in OBJECTIVES]].to_numpy(dtype=float)
     finite = np.all(np.isfinite(sim_Y), axis=1)
-    hv_est, hv_se, n_counted = hv.of(table)
+    hv_sim, n_counted = hv.of(table)
     pred_table = table.assign(**{f"sim_{k}": table[f"pred_{k}"] for k in OBJECTIVES})
-    hv_pred, hv_pred_se, _ = hv.of(pred_table)  # the same designs as the surrogate saw them
+    hv_pred, _ = hv.of(pred_table)  # the same designs as the surrogate saw them
     errors = surrogate_error(pred_Y, sim_Y, hv.norm.span)
     ranked = sorted((k for k in OBJECTIVES if errors[k].get("nrmse") is not None), key=lambda k: -errors[k]["nrmse"])
     n = len(table)
@@ -89,11 +59,14 @@ def front_report(
         "n_candidates": front.n_candidates,
         "n_infeasible_dropped": front.n_infeasible,
         "n_sim_failed": int(n - np.count_nonzero(finite)),
-        "hypervolume": hv_est,
-        "hypervolume_se": hv_se,
+        "hypervolume": hv_sim.value,
+        "hypervolume_se": hv_sim.se,
+        "hypervolume_method": hv_sim.method,
+        "hypervolume_points": hv_sim.n_points,
         "hypervolume_designs": n_counted,
-        "hypervolume_pred": hv_pred,
-        "hypervolume_pred_se": hv_pred_se,
+        "hypervolume_pred": hv_pred.value,
+        "hypervolume_pred_se": hv_pred.se,
+        "hypervolume_pred_method": hv_pred.method,
         "share_nondominated_after_resim": float(table["nondominated_sim"].mean()) if n else None,
         "share_feasible": float(table["feasible"].mean()) if n else None,
         "share_cycle_met": float(table["sim_cycle_met"].mean()) if n else None,

@@ -1,0 +1,56 @@
+"""The pareto stage on the default pipeline's final fronts gives the tables the pandas implementation gave.
+
+``tests/data/pareto_reference`` holds each source's final front and the merged and selected tables the
+stage made of them, written by ``ci/pareto_reference.py`` at 5d4e005 (before the tables moved to polars
+and dominance to moocore); ``summary.json`` is that run's ``reports/pareto.json`` less its hypervolumes.
+Today's stage must reproduce both tables column for column and bit for bit, and the summary exactly.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+
+from hevlib.io import _jsonable
+from hevlib.params import load_params
+from hevlib.pareto import select_designs, table_schema
+from hevlib.tables import scan, to_arrow
+
+REPO = Path(__file__).resolve().parents[1]
+REF = REPO / "tests" / "data" / "pareto_reference"
+SOURCES = ("nsga3", "moead", "moga", "oracle")
+
+
+@pytest.fixture(scope="module")
+def result():
+    params = load_params(REPO / "params.yaml")
+    fronts = {a: scan(REF / "fronts" / f"{a}.parquet").drop("round") for a in SOURCES}
+    return select_designs(fronts, params.screen)
+
+
+@pytest.mark.parametrize("name", ["merged", "selected"])
+def test_polars_tables_equal_the_pandas_ones(result, name):
+    table = getattr(result, name)
+    expected = pq.read_table(REF / f"{name}.parquet")
+    got = to_arrow(table, table_schema(table))
+    assert got.schema.equals(expected.schema.remove_metadata())
+    pd.testing.assert_frame_equal(got.to_pandas(), expected.to_pandas(), check_exact=True)
+
+
+def test_summary_equals_the_pandas_one(result):
+    """Counts, screening report, per-algorithm counts and shares of reports/pareto.json as the pandas
+    implementation wrote them (the hypervolume entries are not the stage's tables: see test_indicators)."""
+    expected = json.loads((REF / "summary.json").read_text())
+    got = json.loads(json.dumps(_jsonable({k: result.summary[k] for k in expected})))
+    assert got == expected
+    c = got["counts"]
+    assert (
+        c["input"] == 800
+        and c["merged"] == 740
+        and c["picked"] == 15
+        and 0 < c["feasible"] <= c["nondominated"] < c["merged"]
+    )
