@@ -49,7 +49,8 @@ _SENSE_OF = dict(zip(OBJECTIVES, SENSE, strict=True))
 # ----------------------------------------------------------------------------------- dominance
 def nondominated_mask(F: np.ndarray) -> np.ndarray:
     """Boolean mask of the rows of ``F`` (n, m; all minimised, finite) that no other row dominates
-    (moocore's ``is_nondominated``: dimension sweep for 2 and 3 objectives, a pairwise C loop beyond).
+    (moocore's ``is_nondominated``, in C: Kung, Luccio and Preparata's algorithm, O(n log n) for up to 3
+    objectives and O(n log^(m-2) n) beyond, the naive O(m n^2) loop for small n).
 
     Duplicated rows do not dominate each other, so all copies of a non-dominated point are kept.
     """
