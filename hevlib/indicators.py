@@ -78,15 +78,20 @@ def _reference(reference, m: int) -> np.ndarray:
     return r
 
 
-def _counted(F: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """The rows that add volume: finite, strictly below the reference in every objective, non-dominated
-    (dropping dominated rows changes neither the dominated region nor its bounding box)."""
+def _front(F: np.ndarray, reference) -> tuple[np.ndarray, np.ndarray]:
+    """(the rows of ``F`` that add volume, the reference point): rows finite, strictly below the reference
+    in every objective and non-dominated (dropping dominated rows changes neither the dominated region
+    nor its bounding box)."""
+    F = np.asarray(F, dtype=float)
+    if F.ndim != 2:
+        raise ValueError(f"hypervolume: expected an (n, m) objective matrix, got shape {F.shape}")
+    r = _reference(reference, F.shape[1])
     F = F[np.all(np.isfinite(F), axis=1) & np.all(F < r, axis=1)]
     if len(F) < 2:
-        return F
+        return F, r
     import moocore
 
-    return F[moocore.is_nondominated(F, keep_weakly=False)]
+    return F[moocore.is_nondominated(F, keep_weakly=False)], r
 
 
 @njit(parallel=True, cache=True)
@@ -130,13 +135,13 @@ def hypervolume_mc(F: np.ndarray, reference, *, n_samples: int, seed: int) -> tu
     in chunks, which draw the same stream as one call; counting is the numba loop of
     :func:`_count_dominated`).
     """
-    F = np.asarray(F, dtype=float)
-    if F.ndim != 2:
-        raise ValueError(f"hypervolume: expected an (n, m) objective matrix, got shape {F.shape}")
+    return _mc(*_front(F, reference), n_samples, seed)
+
+
+def _mc(F: np.ndarray, r: np.ndarray, n_samples: int, seed: int) -> tuple[float, float]:
+    """:func:`hypervolume_mc` of rows already reduced by :func:`_front`."""
     if n_samples < 1:
         raise ValueError("hypervolume: n_samples must be positive")
-    r = _reference(reference, F.shape[1])
-    F = _counted(F, r)
     if len(F) == 0:
         return 0.0, 0.0
     lo = F.min(axis=0)
@@ -157,13 +162,13 @@ def hypervolume_mc(F: np.ndarray, reference, *, n_samples: int, seed: int) -> tu
 def hypervolume_exact(F: np.ndarray, reference) -> float:
     """Exact hypervolume of ``F`` (n, m; minimised) up to ``reference`` (moocore, any m). Its cost grows
     steeply with the number of non-dominated rows at many objectives: see :func:`hypervolume`."""
+    return _exact(*_front(F, reference))
+
+
+def _exact(F: np.ndarray, r: np.ndarray) -> float:
+    """:func:`hypervolume_exact` of rows already reduced by :func:`_front`."""
     import moocore
 
-    F = np.asarray(F, dtype=float)
-    if F.ndim != 2:
-        raise ValueError(f"hypervolume: expected an (n, m) objective matrix, got shape {F.shape}")
-    r = _reference(reference, F.shape[1])
-    F = _counted(F, r)
     return float(moocore.hypervolume(F, ref=r)) if len(F) else 0.0
 
 
@@ -206,17 +211,13 @@ def hypervolume(F: np.ndarray, reference, *, n_samples: int, seed: int, exact_ma
     Monte Carlo one costs about 0.5 s per 10^6 samples on a 200-row front (numba, 2 cores); its standard
     error is in the result."""
     t0 = time.perf_counter()
-    F = np.asarray(F, dtype=float)
-    if F.ndim != 2:
-        raise ValueError(f"hypervolume: expected an (n, m) objective matrix, got shape {F.shape}")
-    r = _reference(reference, F.shape[1])
-    F = _counted(F, r)
+    F, r = _front(F, reference)  # once: the exact and Monte Carlo paths take the reduced rows as they are
     n = len(F)
     if n == 0:
         return Hypervolume(0.0, 0.0, "empty", 0, 0, time.perf_counter() - t0)
     if n <= exact_max_points:
-        return Hypervolume(hypervolume_exact(F, r), 0.0, "exact", n, 0, time.perf_counter() - t0)
-    value, se = hypervolume_mc(F, r, n_samples=n_samples, seed=seed)
+        return Hypervolume(_exact(F, r), 0.0, "exact", n, 0, time.perf_counter() - t0)
+    value, se = _mc(F, r, n_samples, seed)
     return Hypervolume(value, se, "monte_carlo", n, int(n_samples), time.perf_counter() - t0)
 
 

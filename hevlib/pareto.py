@@ -512,11 +512,6 @@ def _count(rows: Table, names: Sequence[str]) -> dict[str, int]:
     return {a: int(counts[a][0] or 0) for a in names}
 
 
-def _share(rows: Table, names: Sequence[str]) -> dict[str, float]:
-    n = n_rows(rows)
-    return {a: (c / n if n else 0.0) for a, c in _count(rows, names).items()}
-
-
 def select_designs(
     fronts: Mapping[str, Table],
     screen,
@@ -611,8 +606,8 @@ def select_designs(
         "screen": rule_report,
         "by_algo": {a: {"input": n_in[a], **{what: counts[what][a] for what in subsets}} for a in names},
         "shared_designs": int((merged["n_sources"] > 1).sum()),
-        "kept_share": _share(subsets["kept"], names),
-        "picked_share": _share(subsets["picked"], names),
+        "kept_share": {a: c / max(int(kept.sum()), 1) for a, c in counts["kept"].items()},
+        "picked_share": {a: c / max(int(picked.sum()), 1) for a, c in counts["picked"].items()},
         "selection": {
             "rank_rule": "euclidean distance to the ideal point, objectives min-max normalised over the feasible set",
             "n_keep": int(screen.n_keep),
