@@ -36,3 +36,8 @@ def source_hash(names=_KERNEL_SOURCES) -> str:
 if "NUMBA_CACHE_DIR" not in os.environ:
     _base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hev-sizing" / "numba"
     os.environ["NUMBA_CACHE_DIR"] = str(_base / source_hash())
+
+
+def numba_cache_dir() -> str:
+    """Where numba keeps the compiled kernels of this process (one folder per version of the kernel sources)."""
+    return os.environ["NUMBA_CACHE_DIR"]

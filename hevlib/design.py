@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +27,20 @@ OBJECTIVES: tuple[str, ...] = (
     "v_max",
     "f_max",
 )
+
+
+def objective_indices(names: Iterable[str], *, what: str = "log_targets") -> tuple[int, ...]:
+    """Positions of ``names`` in ``OBJECTIVES``; ValueError naming an unknown or repeated objective."""
+    names = list(names)
+    for name in names:
+        if name not in OBJECTIVES:
+            raise ValueError(f"{what}: unknown objective {name!r} (objectives: {', '.join(OBJECTIVES)})")
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ValueError(f"{what}: objective {repeated[0]!r} is listed twice")
+    return tuple(OBJECTIVES.index(n) for n in names)
+
+
 #: +1 minimised, -1 maximised (v_max, f_max).
 SENSE = np.array([-1.0 if k in ("v_max", "f_max") else 1.0 for k in OBJECTIVES])
 OBJECTIVE_UNITS = {

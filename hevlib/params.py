@@ -233,7 +233,7 @@ class BnnParams(_Strict):
 
     @model_validator(mode="after")
     def _known_log_targets(self):
-        from hevlib.surrogates.transform import objective_indices
+        from hevlib.design import objective_indices
 
         objective_indices(self.log_targets, what="log_targets")
         return self

@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit, prange
 
 from hevlib.drive import (
+    ON,
     R_MASS,
     R_N_BAT,
     DriveConfig,
@@ -41,7 +42,7 @@ def _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G):
     """Everything the power-split driveline can give at speed ``v`` on a flat road."""
     f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
     lim = split.limits(v, d, E, M, G)
-    return f_cmd, split.dispatch(lim, f_cmd, True, lim.p_e_max, p_dis, p_chg, 1.0, d, E, M, G)
+    return f_cmd, split.dispatch(lim, f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0, d, E, M, G)
 
 
 @njit(cache=True)
@@ -87,7 +88,7 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
     while t < t_max and v < v_lim:
         if kind == 0:
             f_cmd, st = _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G)
-            v_avg = _limited_split(v, v, v_lim, f_cmd, True, p_dis, p_chg, 1.0, 0.0, 1.0, dt, st, d, ch, E, M, G)[2]
+            v_avg = _limited_split(v, v, v_lim, f_cmd, ON, p_dis, p_chg, 1.0, 0.0, 1.0, dt, st, d, ch, E, M, G)[2]
         else:
             # the gear that gains most speed over the step (a gear running out of revs mid-step loses)
             f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))

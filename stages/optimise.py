@@ -15,7 +15,7 @@ from hevlib.plots.fronts import front_figure
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_setup, stage
 from stages.doe import DOE
-from stages.surrogates import HELDOUT
+from stages.heldout import HELDOUT
 
 FRONTS_DIR = Path("data/pareto")
 REPORTS_DIR = Path("reports")

@@ -1,4 +1,4 @@
-"""``hev surrogates`` (fit and judge the BNN and the regressions) and ``hev heldout`` (SPEC 7)."""
+"""``hev surrogates``: fit and judge the BNN and the regressions (SPEC 7)."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ from hevlib import doe
 from hevlib.design import OBJECTIVES, design_matrix
 from hevlib.io import write_json, write_text
 from stages.cli import app
-from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_setup, stage
+from stages.common import PARAMS_OPTION, params_from, stage
 from stages.doe import DOE
+from stages.heldout import HELDOUT, heldout_record, simulate_heldout
 
-HELDOUT = Path("data/doe/heldout.parquet")
 MODELS_DIR = Path("models")
 METRICS = Path("reports/surrogate_metrics.json")
 SIGNS_JSON = Path("reports/regression_signs.json")
@@ -23,38 +23,14 @@ PLOTS_DIR = Path("reports/plots")
 STUDY_COEFFICIENTS = Path("data/raw/paper/regression_equations.csv")
 
 
-def _heldout_record(cfg) -> dict:
-    return doe.heldout_record(cfg.design_space.space(), cfg.surrogate.heldout)
-
-
-def _simulate_heldout(cfg):
-    """Simulate the held-out Latin hypercube: (table, metadata)."""
-    h = cfg.surrogate.heldout
-    X = doe.lhs_designs(cfg.design_space.space(), h.n, h.seed)
-    sim, cycle = sizing_setup(cfg)
-    with progress_callback(f"held-out: {len(X)} designs on {cycle.name}") as cb:
-        table = doe.simulate_designs(sim, X, "heldout", cycle, batch_size=cfg.doe.batch_size, progress=cb)
-    return table, doe.run_metadata(cycle, cfg, **_heldout_record(cfg))
-
-
-@app.command("heldout")
-@stage
-def heldout_stage(params: str = PARAMS_OPTION) -> None:
-    """Simulate the held-out designs of params.surrogate.heldout; write data/doe/heldout.parquet."""
-    cfg = params_from(params)
-    table, meta = _simulate_heldout(cfg)
-    doe.write_doe(HELDOUT, table, meta)
-    typer.echo(f"heldout: {table.num_rows} designs -> {HELDOUT}")
-
-
 def _load_heldout(cfg):
     """The held-out set: reused from HELDOUT when it matches params, else simulated (and written later)."""
     if HELDOUT.exists():
         df, meta = doe.read_doe(HELDOUT)
-        if doe.is_current(meta, cfg, **_heldout_record(cfg)):
+        if doe.is_current(meta, cfg, **heldout_record(cfg)):
             return df, None
         typer.echo(f"surrogates: {HELDOUT} was simulated with other params; simulating it again")
-    table, meta = _simulate_heldout(cfg)
+    table, meta = simulate_heldout(cfg)
     return table.to_pandas(), (table, meta)
 
 

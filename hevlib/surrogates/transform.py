@@ -33,19 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hevlib.design import OBJECTIVES
-
-
-def objective_indices(names: Iterable[str], *, what: str = "log_targets") -> tuple[int, ...]:
-    """Positions of ``names`` in ``OBJECTIVES``; ValueError naming an unknown or repeated objective."""
-    names = list(names)
-    for name in names:
-        if name not in OBJECTIVES:
-            raise ValueError(f"{what}: unknown objective {name!r} (objectives: {', '.join(OBJECTIVES)})")
-    repeated = sorted({n for n in names if names.count(n) > 1})
-    if repeated:
-        raise ValueError(f"{what}: objective {repeated[0]!r} is listed twice")
-    return tuple(OBJECTIVES.index(n) for n in names)
+from hevlib.design import OBJECTIVES, objective_indices
 
 
 @dataclass(frozen=True)
