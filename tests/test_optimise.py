@@ -433,3 +433,21 @@ def test_progress_is_reported_once_per_generation(algo):
     optimise(hev_problem(), algo, SMALL[algo], progress=lambda done, total: seen.append((done, total)))
     n = SMALL[algo].n_gen
     assert seen == [(g, n) for g in range(1, n + 1)]
+
+
+def test_nsga3_tournament_draws_every_tie_from_the_algorithms_seeded_generator():
+    """pymoo 0.6.2's NSGA-III tournament broke ties between equally infeasible parents with an OS-seeded
+    generator; ours takes every coin from the seeded random_state, so the same seed picks the same parents."""
+    from pymoo.core.population import Population
+
+    from hevlib.optimise.algorithms import _by_violation_then_random
+
+    cv = np.array([0.0, 0.0, 2.0, 2.0, 1.0, 3.0])
+    pop = Population.new(X=np.zeros((6, 1)), CV=cv[:, None])
+    P = np.array([[2, 3]] * 40 + [[4, 5], [5, 4], [0, 2], [2, 0], [0, 1]])
+    picks = [_by_violation_then_random(pop, P, random_state=np.random.default_rng(7))[:, 0] for _ in range(2)]
+    assert np.array_equal(picks[0], picks[1])
+    ties = picks[0][:40]
+    assert set(ties) == {2, 3}  # equal violation: a coin toss, both sides win sometimes
+    assert list(picks[0][40:44]) == [4, 4, 0, 0]  # the smaller violation wins; a feasible parent beats any
+    assert picks[0][44] in (0, 1)

@@ -178,6 +178,24 @@ def _front(
     )
 
 
+def _by_violation_then_random(pop, P, random_state=None, **kwargs) -> np.ndarray:
+    """NSGA-III's binary tournament (pymoo's ``comp_by_cv_then_random``: the smaller constraint violation
+    wins, a tie or two feasible parents is a coin toss) with every coin drawn from the algorithm's seeded
+    ``random_state``. pymoo 0.6.2's own version breaks a tie between two infeasible parents of equal
+    violation with ``compare(..., return_random_if_equal=True)`` without passing it, i.e. with a fresh
+    OS-seeded generator, so the search did not reproduce from process to process (measured on the
+    pipeline's NSGA-III stage: four different fronts in six runs of the same inputs)."""
+    cv = pop.get("CV")[:, 0]
+    S = np.empty(P.shape[0], dtype=int)
+    for i in range(P.shape[0]):
+        a, b = P[i, 0], P[i, 1]
+        if (cv[a] > 0.0 or cv[b] > 0.0) and cv[a] != cv[b]:
+            S[i] = a if cv[a] < cv[b] else b
+        else:
+            S[i] = random_state.choice([a, b])
+    return S[:, None]
+
+
 # ------------------------------------------------------------------------------------- algorithms
 def nsga3(problem: Problem, settings: AlgoParams, progress=None, initial: np.ndarray | None = None) -> Front:
     """NSGA-III with two-layer Das-Dennis reference directions (``settings.ref_dirs_partitions``).
@@ -194,7 +212,13 @@ def nsga3(problem: Problem, settings: AlgoParams, progress=None, initial: np.nda
     t0 = time.perf_counter()
     ref = reference_directions(problem.n_obj, partitions=list(settings.ref_dirs_partitions))
     pop_size = max(settings.pop_size, len(ref))
-    algorithm = NSGA3(ref, pop_size=pop_size, eliminate_duplicates=True, **_operators(problem, settings, initial))
+    algorithm = NSGA3(
+        ref,
+        pop_size=pop_size,
+        eliminate_duplicates=True,
+        selection=TournamentSelection(func_comp=_by_violation_then_random),
+        **_operators(problem, settings, initial),
+    )
     res = run(problem, algorithm, settings.n_gen, settings.seed, progress)
     return _front(
         problem,
