@@ -79,7 +79,7 @@ def compact(root: Path, files: set[Path]) -> list[str]:
     the single files elsewhere; paths relative to ``root``, sorted."""
 
     def whole(folder: Path) -> bool:
-        return all(f in files for f in folder.rglob("*.py") if "__pycache__" not in f.parts)
+        return _modules(folder) <= files
 
     out: set[str] = set()
     for f in files:
@@ -211,8 +211,12 @@ def check_deps(root: Path, dvc_yaml: str) -> list[DepsProblem]:
     return problems
 
 
+def _modules(folder: Path) -> set[Path]:
+    """Every Python module under ``folder`` (bytecode caches aside)."""
+    return {f for f in folder.rglob("*.py") if "__pycache__" not in f.parts}
+
+
 def _files(root: Path, dep: str) -> set[Path]:
+    """The modules a ``dvc.yaml`` code dep stands for: a folder's modules, or the one file."""
     path = root / dep
-    if path.is_dir():
-        return {f for f in path.rglob("*.py") if "__pycache__" not in f.parts}
-    return {path}
+    return _modules(path) if path.is_dir() else {path}
