@@ -618,63 +618,18 @@ def _batch_responses(sim: Simulator, item: tuple[np.ndarray, Cycle]) -> pd.DataF
     return sim.responses(sim.run_raw(X, cycle, "hybrid"), cycle)
 
 
-@dataclass(frozen=True)
-class CompileTime:
-    """Where ``hev warmup``'s time went, per compiled function (numba's ``numba:compile`` events)."""
-
-    function: str  #: module.qualname of the Python function numba compiled (or loaded from its cache)
-    signatures: int  #: how many times it was compiled (one per argument-type signature)
-    total_s: float  #: wall time inside its compilation, the functions it compiled on the way included
-    self_s: float  #: the same less the nested compilations of other dispatchers
-
-    @property
-    def ours(self) -> bool:
-        return self.function.startswith("hevlib.")
-
-
-def compile_times(events) -> list[CompileTime]:
-    """Per-function compile times from numba's recorded ``numba:compile`` events, longest ``self_s`` first.
-
-    Compilations nest (a kernel compiles the non-inlined functions it calls), so each function's own
-    share is its time less that of the compilations started inside it; the ``self_s`` column sums to the
-    whole time numba spent compiling.
-    """
-    stack: list[list] = []
-    acc: dict[str, list] = {}
-    for ts, event in events:
-        fn = event.data["dispatcher"].py_func
-        name = f"{fn.__module__}.{fn.__qualname__}"
-        if event.is_start:
-            stack.append([name, ts, 0.0])
-            continue
-        name, start, nested = stack.pop()
-        if stack:
-            stack[-1][2] += ts - start
-        row = acc.setdefault(name, [0, 0.0, 0.0])
-        row[0] += 1
-        row[1] += ts - start
-        row[2] += ts - start - nested
-    rows = [CompileTime(n, c, t, s) for n, (c, t, s) in acc.items()]
-    return sorted(rows, key=lambda r: (-r.self_s, r.function))
-
-
-def warm_up(params: Params, paper_dir: str | Path = "data/raw/paper") -> list[CompileTime]:
-    """Compile (and cache on disk) every numba kernel the stages call, on a two-step cycle; returns what
-    was compiled and how long each function took (:func:`compile_times`).
+def warm_up(params: Params, paper_dir: str | Path = "data/raw/paper") -> None:
+    """Compile (and cache on disk) every numba kernel the stages call, on a two-step cycle.
 
     numba caches each kernel per argument types; the stages always pass the same types (float64
     C-contiguous arrays), so one small run per vehicle kind fills the cache the pipeline reads.
     """
-    from numba.core.event import install_recorder
-
     from hevlib.scaling import study_library
 
     sim = Simulator(study_library(params.baseline, paper_dir), params)
     cycle = Cycle("warm-up", np.arange(3.0), np.array([0.0, 1.0, 0.0]), np.zeros(3))
-    with install_recorder("numba:compile") as recorder:
-        for vehicle in ("prius", "conventional"):  # the hybrid kernel (any design) and the conventional one
-            sim.run_raw(None, cycle, vehicle)
-    return compile_times(recorder.buffer)
+    for vehicle in ("prius", "conventional"):  # the hybrid kernel (any design) and the conventional one
+        sim.run_raw(None, cycle, vehicle)
 
 
 def energy_balance(res: RunOutput) -> pd.DataFrame:
