@@ -71,8 +71,8 @@ def _setup(params_path: Path = ROOT / "params.yaml", **sim_update):
     """The simulator on the repository's params (data paths absolute, ``sim`` keys overridden) and cycles."""
     from hevlib.cycles import build_cycles
     from hevlib.params import load_params
-    from hevlib.scaling import study_library
     from hevlib.simulate import Simulator
+    from hevlib.sizing import study_library
 
     params = load_params(params_path)
     params = params.model_copy(

@@ -46,8 +46,8 @@ def main() -> None:
     args = ap.parse_args()
     from hevlib.params import load_params
     from hevlib.powertrain.thermal import start_temperatures
-    from hevlib.scaling import study_library
     from hevlib.simulate import Simulator
+    from hevlib.sizing import study_library
 
     p = load_params(ROOT / "params.yaml")
     p = p.model_copy(

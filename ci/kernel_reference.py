@@ -53,8 +53,8 @@ def main() -> None:
     sys.path.insert(0, str(ROOT))
     from hevlib.cycles import build_cycles
     from hevlib.params import load_params
-    from hevlib.scaling import study_library
     from hevlib.simulate import Simulator
+    from hevlib.sizing import study_library
 
     p = load_params(ROOT / "params.yaml")
     p = p.model_copy(

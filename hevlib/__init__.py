@@ -18,7 +18,7 @@ MODEL_VERSION = "sim-3"
 #: kernel module starts a fresh cache instead of silently reusing stale machine code.
 _KERNEL_SOURCES = ("control.py", "drive.py", "performance.py", "powertrain")
 #: Everything that changes a simulated response (kernels, responses, component data handling).
-SIMULATOR_SOURCES = (*_KERNEL_SOURCES, "simulate.py", "components.py", "scaling.py", "cycles.py")
+SIMULATOR_SOURCES = (*_KERNEL_SOURCES, "simulate.py", "components.py", "sizing.py", "cycles.py")
 
 
 def source_hash(names=_KERNEL_SOURCES) -> str:

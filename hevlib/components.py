@@ -829,7 +829,7 @@ def load_library(
     ``conventional_body`` / ``prius_body`` override body and wheel numbers with the study's Table 1
     (keys as :func:`read_baseline_table` returns them). The conventional car is the EV1 body with the
     small-car wheel in ADVISOR terms (Cd 0.19, 2.038 m2, CG 0.4 m, r 0.282 m). Its glider mass is
-    ADVISOR's EV1 value here; :func:`hevlib.scaling.with_conventional_glider` replaces it by the one
+    ADVISOR's EV1 value here; :func:`hevlib.sizing.with_conventional_glider` replaces it by the one
     the conventional car's test mass implies.
     """
     raw = Path(raw_dir)

@@ -103,7 +103,7 @@ def thresholds(pms) -> np.ndarray:
     return np.array([x for key in keys for x in (getattr(pms, key).value, getattr(pms, key).width)], dtype=float)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def supervise(
     engine_on: bool,
     t_in_state_s: float,

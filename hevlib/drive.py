@@ -21,8 +21,9 @@ from hevlib.powertrain import hybrid as split
 from hevlib.powertrain import layout as L  # O_*, T_* column indices (compile-time constants)
 from hevlib.powertrain import thermal as th_
 from hevlib.powertrain.battery import current_for_power, power_limits
+from hevlib.powertrain.borrow import borrowed
 from hevlib.powertrain.engine import EngineArrays, max_torque, rates
-from hevlib.powertrain.lookup import cell
+from hevlib.powertrain.lookup import cell, interp1_np
 from hevlib.powertrain.machines import MachineArrays, torque_limit
 from hevlib.powertrain.scaling import in_series
 from hevlib.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_force
@@ -129,7 +130,7 @@ def conventional_equivalent_mass_kg(m: float, ratio: float, engaged: bool, s_eng
 @njit(cache=True, inline="always")
 def driveline_brake_share(v: float, c: DriveConfig) -> float:
     """Share of a braking request the driveline may take at speed ``v`` (the wheel file's table)."""
-    return np.interp(v, c.brake_v_mps, c.brake_share)
+    return interp1_np(v, c.brake_v_mps, c.brake_share)
 
 
 @njit(cache=True, inline="always")
@@ -359,6 +360,9 @@ def _hybrid_one(
     tr,
     record: bool,
 ):
+    # everything below reads the caller's arrays through views that are not reference-counted (borrow.py)
+    c, th, E, M, G, B, X, row, t_init, o, tr = borrowed((c, th, E, M, G, B, X, row, t_init, o, tr))
+    v_ref, grade, sin_g, cos_g, key_on = borrowed((v_ref, grade, sin_g, cos_g, key_on))
     d = split_design(row, c)
     ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c), c)
     n_bat = row[R_N_BAT]
@@ -370,7 +374,8 @@ def _hybrid_one(
     eng_on, t_state = OFF, 1e9
     soc_lo, soc_hi = soc, soc
     n = v_ref.shape[0]
-    k_th, temp, q_th = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
+    k_own, temp_own, q_own = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
+    k_th, temp, q_th = borrowed((k_own, temp_own, q_own))
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]
@@ -498,7 +503,8 @@ def _hybrid_one(
     o[L.O_SOC_MIN_SEEN] = soc_lo
     o[L.O_SOC_MAX_SEEN] = soc_hi
     o[L.O_E_KIN_END] = 0.5 * ch.m_eff * v * v
-    th_.finish(temp, k_th, (n - 1) * dt, o)
+    th_.finish(temp_own, k_own, (n - 1) * dt, o)
+    th_.release(q_own)  # the scratch's owner lives to here
     if record:
         tr[0, L.T_V_REF] = v_ref[0]
         tr[0, L.T_SOC] = c.soc_init
@@ -554,6 +560,9 @@ def _conventional_one(
     tr,
     record: bool,
 ):
+    # the caller's arrays through views that are not reference-counted (borrow.py)
+    c, ratios, upshift_kmh, E, X, row, t_init, o, tr = borrowed((c, ratios, upshift_kmh, E, X, row, t_init, o, tr))
+    v_ref, grade, sin_g, cos_g, key_on = borrowed((v_ref, grade, sin_g, cos_g, key_on))
     m = row[R_MASS]
     m_free = conventional_equivalent_mass_kg(m, 0.0, False, d.s_eng, c)  # clutch open
     m_prev = m_free
@@ -561,7 +570,8 @@ def _conventional_one(
     v_lim = d.w_e_max * d.r / ratios[-1]
     v = 0.0
     n = v_ref.shape[0]
-    k_th, temp, q_th = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
+    k_own, temp_own, q_own = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
+    k_th, temp, q_th = borrowed((k_own, temp_own, q_own))
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]
@@ -646,7 +656,8 @@ def _conventional_one(
     o[L.O_SOC_MIN_SEEN] = c.soc_init
     o[L.O_SOC_MAX_SEEN] = c.soc_init
     o[L.O_E_KIN_END] = 0.5 * m_prev * v * v
-    th_.finish(temp, k_th, (n - 1) * dt, o)
+    th_.finish(temp_own, k_own, (n - 1) * dt, o)
+    th_.release(q_own)
     if record:
         tr[0, L.T_V_REF] = v_ref[0]
         tr[0, L.T_GRADE] = grade[0]

@@ -29,6 +29,7 @@ from hevlib.drive import (
 )
 from hevlib.powertrain import conventional as conv
 from hevlib.powertrain import hybrid as split
+from hevlib.powertrain.borrow import borrowed
 from hevlib.powertrain.engine import EngineArrays
 from hevlib.powertrain.machines import MachineArrays
 from hevlib.powertrain.vehicle import adhesion_limit, road_total
@@ -70,6 +71,7 @@ def _surplus(kind, v, p_dis, p_chg, ratios, d, cd, ch, E, M, G):
 @njit(cache=True)
 def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
     """kind 0: power-split hybrid, 1: conventional. Returns (f_max, t_0_100_s, v_max_kmh)."""
+    row, c, ratios, E, M, G, B = borrowed((row, c, ratios, E, M, G, B))  # not reference-counted (borrow.py)
     d = split_design(row, c)
     m = row[R_MASS]
     ch = chassis(

@@ -38,7 +38,7 @@ from hevlib.powertrain.lookup import resample, uniform_axis
 from hevlib.powertrain.machines import MachineArrays
 from hevlib.powertrain.thermal import ThermalConfig, cold_factors, start_temperatures
 from hevlib.powertrain.vehicle import grade_trig
-from hevlib.scaling import conventional_chassis_kg, hybrid_masses
+from hevlib.sizing import conventional_chassis_kg, hybrid_masses
 
 Vehicle = Literal["hybrid", "prius", "conventional"]
 VEHICLES: tuple[str, ...] = ("hybrid", "prius", "conventional")
@@ -624,7 +624,7 @@ def warm_up(params: Params, paper_dir: str | Path = "data/raw/paper") -> None:
     numba caches each kernel per argument types; the stages always pass the same types (float64
     C-contiguous arrays), so one small run per vehicle kind fills the cache the pipeline reads.
     """
-    from hevlib.scaling import study_library
+    from hevlib.sizing import study_library
 
     sim = Simulator(study_library(params.baseline, paper_dir), params)
     cycle = Cycle("warm-up", np.arange(3.0), np.array([0.0, 1.0, 0.0]), np.zeros(3))

@@ -9,7 +9,7 @@ import typer
 from hevlib.baselines import simulate_baselines
 from hevlib.io import write_json, write_table
 from hevlib.plots.traces import plot_hybrid_trace
-from hevlib.scaling import scale_engine
+from hevlib.sizing import scale_engine
 from stages.cli import app
 from stages.common import PARAMS_OPTION, cycle_named, params_from, progress_callback, simulator, stage
 

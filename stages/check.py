@@ -13,7 +13,7 @@ from pathlib import Path
 from hevlib.cycles import build_cycles
 from hevlib.doe import doe_designs
 from hevlib.io import write_text
-from hevlib.scaling import study_library
+from hevlib.sizing import study_library
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, stage
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from hevlib.io import write_json
 from hevlib.plots.maps import write_map_plots
-from hevlib.scaling import study_library, study_report
+from hevlib.sizing import study_library, study_report
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, stage
 

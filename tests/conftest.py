@@ -8,7 +8,7 @@ import pytest
 
 from hevlib.components import ComponentLibrary
 from hevlib.params import Params, load_params
-from hevlib.scaling import study_library
+from hevlib.sizing import study_library
 
 ROOT = Path(__file__).resolve().parents[1]
 RAW = ROOT / "data" / "raw"

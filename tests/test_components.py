@@ -17,7 +17,7 @@ from hevlib.components import (
     read_baseline_table,
     read_paper_row,
 )
-from hevlib.scaling import scale_engine
+from hevlib.sizing import scale_engine
 
 
 def _raw(raw, name: str) -> dict:

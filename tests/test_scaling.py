@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import yaml
 
-from hevlib.scaling import (
+from hevlib.sizing import (
     battery_pack,
     components_report,
     conventional_chassis_kg,

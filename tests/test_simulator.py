@@ -246,7 +246,7 @@ def test_responses_are_finite_and_named(sim, cycles, designs):
 
 
 def test_mass_model_matches_components(sim, lib):
-    from hevlib.scaling import hybrid_masses
+    from hevlib.sizing import hybrid_masses
 
     X = np.array([PRIUS, [50, 50, 25, 3.93, 40, 78, 30]], dtype=float)
     m = hybrid_masses(lib, sim.chassis_kg, X[:, 0], X[:, 1], X[:, 2], X[:, 4]).test_mass_kg

@@ -58,7 +58,7 @@ def line_power_for_torque(t: float, s: float, e: EngineArrays) -> float:
     return scaled(interp1(base_torque(t, s), e.line_t, e.line_p), s)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rates(w: float, t: float, s: float, e: EngineArrays) -> tuple[float, float, float, float]:
     """(fuel, hc, co, nox) in g/s at speed ``w`` and torque ``t`` (>= 0) of the engine scaled by ``s``."""
     i, fx = cell(w, e.w0, e.dw, e.fuel.shape[0])

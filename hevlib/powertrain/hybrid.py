@@ -102,7 +102,7 @@ def generator_overspeed_if_stopped(w_r: float, d: SplitDesign) -> bool:
     return d.n_r / d.n_s * w_r > d.w_g_max
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def limits(v: float, d: SplitDesign, E: EngineArrays, M: MachineArrays, G: MachineArrays) -> SplitLimits:
     """Ring speed, motor torque limit, engine speed window and the most engine power at speed ``v``
     (the top of the window at full load, or at the torque the generator can react), W."""

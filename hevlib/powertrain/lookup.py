@@ -47,6 +47,24 @@ def interp1(x: float, xs: np.ndarray, ys: np.ndarray) -> float:
 
 
 @njit(cache=True, inline="always")
+def interp1_np(x: float, xs: np.ndarray, ys: np.ndarray) -> float:
+    """:func:`interp1` with numpy's arithmetic (``np.interp``: slope times offset), bit for bit, without
+    the array numba's ``np.interp`` allocates for a scalar argument."""
+    n = xs.shape[0]
+    if x <= xs[0]:
+        return ys[0]
+    if x >= xs[n - 1]:
+        return ys[n - 1]
+    i = 0
+    while xs[i + 1] <= x:
+        i += 1
+    if x == xs[i]:
+        return ys[i]
+    slope = (ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i])
+    return slope * (x - xs[i]) + ys[i]
+
+
+@njit(cache=True, inline="always")
 def blend(z: np.ndarray, i: int, j: int, fx: float, fy: float) -> float:
     """Bilinear blend of z around cell (i, j) with fractions (fx, fy) from :func:`bracket`."""
     return (1.0 - fx) * ((1.0 - fy) * z[i, j] + fy * z[i, j + 1]) + fx * (

@@ -1,4 +1,4 @@
-"""The component scaling law, once (numba): the kernels call it per step, :mod:`hevlib.scaling` on arrays.
+"""The component scaling law, once (numba): the kernels call it per step, :mod:`hevlib.sizing` on arrays.
 
 ADVISOR's torque scaling at a fixed speed axis: a component of ``p_kw`` peak power built from a base map
 of ``p_base_kw`` has the scale factor ``s = p_kw / p_base_kw``; its torques and torque limits, fuel and

@@ -177,6 +177,14 @@ def finish(temp: np.ndarray, k: np.ndarray, duration_s: float, o: np.ndarray) ->
         o[L.O_T_LIGHT_OFF_S] = duration_s
 
 
+@njit(cache=True, inline="always")
+def release(scratch: np.ndarray) -> None:
+    """Mark the end of a borrowed scratch array's use: the kernels read :func:`start`'s arrays through views
+    that do not keep them alive (:mod:`hevlib.powertrain.borrow`), so the owner is used once more here,
+    after the last step, and freed after this call."""
+    scratch[0] = 0.0
+
+
 @njit(cache=True)
 def design_constants(p_eng_kw: float, t: ThermalConfig, dt: float, w_flow_max: float) -> np.ndarray:
     """Node heat capacities (J/K), areas (m^2) and sub-steps of the design whose engine makes ``p_eng_kw``;
@@ -240,14 +248,20 @@ def substeps(k: np.ndarray, t: ThermalConfig, dt: float, w_flow_max: float) -> f
 
 @njit(cache=True, inline="always")
 def _forced(v_mps: float, v_share: float, v_ref: float) -> float:
-    """Forced-convection part of ADVISOR's air-side coefficient, W/(m^2 K) (speed in m/s, as its code)."""
+    """Forced-convection part of ADVISOR's air-side coefficient, W/(m^2 K) (speed in m/s, as its code);
+    exactly 0 at standstill, where the power is not evaluated."""
+    if v_mps == 0.0:
+        return 0.0
     return 60.0 * (abs(v_share * v_mps) / v_ref) ** 0.6
 
 
 @njit(cache=True, inline="always")
 def _h_air(dt_k: float, base_forced: float) -> float:
     """ADVISOR's air-side coefficient, W/(m^2 K): ``base_forced`` (its base 6 or 10 plus :func:`_forced`)
-    plus natural convection ``6 (|dT| / 1000)^0.3``."""
+    plus natural convection ``6 (|dT| / 1000)^0.3`` (exactly none between equal temperatures, where the power
+    is not evaluated)."""
+    if dt_k == 0.0:
+        return base_forced
     return base_forced + 6.0 * (abs(dt_k) / 1000.0) ** 0.3
 
 
@@ -291,6 +305,15 @@ def stored_heat(temp: np.ndarray, k: np.ndarray) -> float:
     return u
 
 
+@njit(cache=True, inline="always")
+def at_ambient(temp: np.ndarray, amb_c: float) -> bool:
+    """Every node exactly at the ambient temperature (a cold engine before its first fuel)."""
+    for i in range(N_NODES):
+        if temp[i] != amb_c:
+            return False
+    return True
+
+
 @njit(cache=True)
 def thermal_step(
     temp: np.ndarray,
@@ -316,6 +339,8 @@ def thermal_step(
     heat terms ``O_Q_*`` of :mod:`hevlib.powertrain.layout` in ``o``.
     """
     amb = t.amb_c
+    if fuel_g_s == 0.0 and q_waste_w == 0.0 and eo_hc + eo_co + eo_nox == 0.0 and at_ambient(temp, amb):
+        return 0.0, 0.0, 0.0  # no heat in and every node at ambient: nothing flows, nothing changes
     flow = fuel_g_s * (1.0 + t.afr)
     c_gas = flow * t.cp_gas  # W/K
     # ---- heat the exhaust carries (above ambient) and the rest, into the cylinder

@@ -1,4 +1,4 @@
-"""Scaling laws (SPEC section 4) and the mass model of the conversion.
+"""Sizing: scaled component maps and the mass model of the conversion (SPEC section 4), for whole designs.
 
 Engine, motor and generator are scaled by maximum power with the speed axis fixed (ADVISOR's
 torque scaling): torque axis, torque limits, fuel and emission rates all multiply by the power scale

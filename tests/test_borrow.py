@@ -1,0 +1,102 @@
+"""Borrowed (not reference-counted) array views of the kernels, and the exact short cuts of the thermal
+step and of the brake-share lookup: the same numbers, bit for bit, with less work."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from hevlib.powertrain import thermal as T
+from hevlib.powertrain.borrow import borrowed
+from hevlib.powertrain.layout import N_O
+from hevlib.powertrain.lookup import interp1_np
+
+
+@intrinsic
+def _counted(typingctx, arr):
+    """Whether ``arr`` carries a meminfo (is reference-counted)."""
+
+    def codegen(context, builder, sig, args):
+        ary = context.make_array(sig.args[0])(context, builder, args[0])
+        return builder.not_(cgutils.is_null(builder, ary.meminfo))
+
+    return types.boolean(arr), codegen
+
+
+class _Maps(NamedTuple):
+    scale: float
+    table: np.ndarray
+    grid: np.ndarray
+
+
+@njit
+def _views(a, maps):
+    b = borrowed(a)
+    m = borrowed(maps)
+    pair = borrowed((a, (maps, 2.0)))
+    same = (
+        b.ctypes.data == a.ctypes.data
+        and b.shape == a.shape
+        and b.strides == a.strides
+        and m.table.ctypes.data == maps.table.ctypes.data
+        and m.grid.shape == maps.grid.shape
+    )
+    counted = (
+        _counted(a),
+        _counted(b),
+        _counted(m.table),
+        _counted(m.grid),
+        _counted(pair[0]),
+        _counted(pair[1][0].table),
+    )
+    total = 0.0
+    for i in range(b.shape[0]):
+        for j in range(b.shape[1]):
+            total += b[i, j] * m.scale
+    return same, counted, total, pair[1][1], m.scale
+
+
+def test_borrowed_views_read_the_same_memory_without_a_reference_count():
+    a = np.arange(12.0).reshape(3, 4)[:, ::2]  # a strided view: shape and strides carry over
+    maps = _Maps(0.5, np.ones((2, 3)), np.linspace(0.0, 1.0, 5))
+    same, counted, total, scalar, scale = _views(a, maps)
+    assert same
+    # the argument is counted, every borrowed view (plain, in a NamedTuple, in nested tuples) is not
+    assert counted == (True, False, False, False, False, False)
+    assert total == a.sum() * 0.5 and scalar == 2.0 and scale == 0.5
+
+
+def test_interp1_np_is_numpys_interp_bit_for_bit():
+    rng = np.random.default_rng(3)
+    xs = np.array([0.0, 4.4704, 26.8224, 447.04])
+    ys = np.array([0.0, 0.15, 0.85, 0.85])
+    x = np.concatenate([rng.uniform(-5.0, 460.0, 2000), xs, [-1e-300, 1e9]])
+    got = np.array([interp1_np(v, xs, ys) for v in x])
+    np.testing.assert_array_equal(got, np.interp(x, xs, ys))
+
+
+def test_thermal_short_cuts_are_the_formulas_value_exactly():
+    # the powers left out at zero are exactly what evaluating them gives
+    for base in (6.0, 10.0 + T._forced.py_func(13.0, 0.5, 30.0)):
+        assert T._h_air(0.0, base) == base + 6.0 * (0.0 / 1000.0) ** 0.3
+        assert T._h_air(-0.0, base) == base
+    for share, ref in ((0.5, 30.0), (1.0, 30.0), (0.75, 21.0)):
+        assert T._forced(0.0, share, ref) == 60.0 * (abs(share * 0.0) / ref) ** 0.6
+        assert T._forced(12.5, share, ref) == 60.0 * (abs(share * 12.5) / ref) ** 0.6
+
+
+def test_a_step_with_no_heat_at_ambient_changes_nothing_and_one_degree_off_does(sim):
+    cfg = sim._thermal["hybrid"]
+    k = T.design_constants(40.0, cfg, 1.0, 60.0)
+    q = np.zeros(T.N_NODES)
+    temp = np.full(T.N_NODES, cfg.amb_c)
+    o = np.zeros(N_O)
+    tp = T.thermal_step(temp, k, q, cfg, True, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 12.0, 1.0, o)
+    assert tp == (0.0, 0.0, 0.0) and (temp == cfg.amb_c).all() and not o.any()
+    temp[T.N_MON] += 1.0  # one node off ambient: the full step runs and the monolith cools
+    T.thermal_step(temp, k, q, cfg, True, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 12.0, 1.0, o)
+    assert cfg.amb_c < temp[T.N_MON] < cfg.amb_c + 1.0 and o.any()
