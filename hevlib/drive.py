@@ -295,7 +295,8 @@ def _over(x: float, cap: float) -> bool:
     return x > cap * (1.0 + LIMIT_TOL) + 1e-12
 
 
-SPEED_TOL = 1e-4  # m/s, convergence of a force-limited step's speed
+SPEED_TOL = 1e-6  # m/s, convergence of a force-limited step's speed
+NO_ENVELOPE = (-1.0, 0.0, 0.0)  # (speed, force, slope) of the full-power envelope: none known yet
 
 
 @njit(cache=True, inline="always")
@@ -306,27 +307,57 @@ def _secant_step(v_a: float, h_a: float, v_b: float, h_b: float, v_max: float) -
     return min(max(v, 0.0), v_max)
 
 
+@njit(cache=True, inline="always")
+def _newton_from(v0, v_e, f_e, slope, sn, cs, dt, v_max, ch: Chassis) -> float:
+    """Newton step for the root of h(v) = v_bought(F(v)) - v from ``v_e``, where the driveline gives the force
+    ``f_e`` and ``F`` has the slope ``slope`` (N s/m) against speed. ``v_bought`` (:func:`mean_speed_for_force`,
+    this step's start speed and grade) rises with the force at ``1 / (2 m_eff / dt + rho CdA u)`` (0 on its
+    branch where the step ends at v0 / 2)."""
+    u = mean_speed_for_force(v0, f_e, sn, cs, dt, ch)
+    du_df = 1.0 / (2.0 * ch.m_eff / dt + ch.rho * ch.cda * u) if u > 0.0 and 2.0 * u - v0 > 0.0 else 0.0
+    dh = min(du_df * slope - 1.0, -0.1)  # h falls with v (the force falls, or barely rises, with speed)
+    return min(max(v_e - (u - v_e) / dh, 0.0), v_max)
+
+
 @njit(cache=True)
-def _limited_split(v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st, d, ch, E, M, G):
+def _limited_split(v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st, env, d, ch, E, M, G):
     """Solve a force-limited step of the power-split car: the mean speed ``v`` (<= ``v_cap``) at which
-    the force the driveline gives at ``v`` (``st``: its state at ``v_req``) buys exactly ``v``
-    (secant iteration from ``v_req``). Returns (state, v_disp, v_avg)."""
-    v_a = v_req
-    h_a = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_a
-    v_b = min(max(v_a + h_a, 0.0), v_cap)
-    for _ in range(12):
+    the force the driveline gives at ``v`` (``st``: its state at ``v_req``) buys exactly ``v``.
+
+    ``env = (v, F, dF/dv)``: a point of the full-power force envelope against speed and its slope, from the
+    previous force-limited step (``v < 0``: none). Consecutive limited steps have nearly the same envelope and
+    nearby solutions, so the first guess is the Newton step from that point (else the fixed-point step from
+    ``v_req``), the second a Newton step with the slope, then secant steps, until the speed bought is within
+    ``SPEED_TOL``. Returns (state, v_disp, v_avg, the envelope point and slope for the next solve)."""
+    v_e, f_e, slope = env
+    u = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch)
+    v_a, f_a, h_a = v_req, st.f_del, u - v_req
+    if v_e >= 0.0:
+        v_b = _newton_from(v0, v_e, f_e, slope, sn, cs, dt, v_cap, ch)
+    else:
+        v_b = min(max(v_req + h_a, 0.0), v_cap)
+    f_b = f_a
+    for it in range(12):
         lim = split.limits(v_b, d, E, M, G)
         st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis, p_chg, regen, d, E, M, G)
-        h_b = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_b
+        f_b = st.f_del
+        u = mean_speed_for_force(v0, f_b, sn, cs, dt, ch)
+        h_b = u - v_b
         if abs(h_b) <= SPEED_TOL:
             break
-        v_a, h_a, v_b = v_b, h_b, _secant_step(v_a, h_a, v_b, h_b, v_cap)
-    return st, v_b, mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch)
+        if it == 0 and v_e >= 0.0:
+            v_next = _newton_from(v0, v_b, f_b, slope, sn, cs, dt, v_cap, ch)
+        else:
+            v_next = _secant_step(v_a, h_a, v_b, h_b, v_cap)
+        v_a, h_a, f_a, v_b = v_b, h_b, f_b, v_next
+    if 1e-9 < abs(v_b - v_a) < 0.5:  # a local secant of the envelope (not the chord from a distant v_req)
+        slope = (f_b - f_a) / (v_b - v_a)
+    return st, v_b, u, (v_b, f_b, slope)
 
 
 @njit(cache=True)
 def _limited_conv(v0, v_req, v_cap, f_cmd, ratio, sn, cs, dt, st, d, ch, E):
-    """As :func:`_limited_split` for the conventional car in a fixed gear."""
+    """As :func:`_limited_split` for the conventional car in a fixed gear (fixed-point start)."""
     v_a = v_req
     h_a = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_a
     v_b = min(max(v_a + h_a, 0.0), v_cap)
@@ -372,6 +403,7 @@ def _hybrid_one(
     v_lim = split_speed_limit(d)
     soc, v = c.soc_init, 0.0
     eng_on, t_state = OFF, 1e9
+    env = NO_ENVELOPE  # the last force-limited step's point on the full-power force envelope (_limited_split)
     soc_lo, soc_hi = soc, soc
     n = v_ref.shape[0]
     k_own, temp_own, q_own = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
@@ -422,8 +454,8 @@ def _hybrid_one(
                 limited = st.f_del < f_req - 1e-6 * max(1.0, f_req)
             if limited:
                 o[L.O_N_LIMITED] += 1.0
-                st, v_disp, v_avg = _limited_split(
-                    v0, v_req, v_req, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st, d, ch, E, M, G
+                st, v_disp, v_avg, env = _limited_split(
+                    v0, v_req, v_req, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st, env, d, ch, E, M, G
                 )
             else:
                 v_avg = v_req

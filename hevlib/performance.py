@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit, prange
 
 from hevlib.drive import (
+    NO_ENVELOPE,
     ON,
     R_MASS,
     R_N_BAT,
@@ -87,10 +88,13 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
         v_lim = cd.w_e_max * cd.r / ratios[-1]
     # ---- launch: each step the speed the full force buys (as in a force-limited driving step)
     v, t, f_max, t100 = 0.0, 0.0, 0.0, np.inf
+    env = NO_ENVELOPE  # full-power force envelope, carried from step to step (see _limited_split)
     while t < t_max and v < v_lim:
         if kind == 0:
             f_cmd, st = _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G)
-            v_avg = _limited_split(v, v, v_lim, f_cmd, ON, p_dis, p_chg, 1.0, 0.0, 1.0, dt, st, d, ch, E, M, G)[2]
+            _, _, v_avg, env = _limited_split(
+                v, v, v_lim, f_cmd, ON, p_dis, p_chg, 1.0, 0.0, 1.0, dt, st, env, d, ch, E, M, G
+            )
         else:
             # the gear that gains most speed over the step (a gear running out of revs mid-step loses)
             f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))

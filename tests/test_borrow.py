@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+import pytest
 from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
@@ -81,12 +82,14 @@ def test_interp1_np_is_numpys_interp_bit_for_bit():
 
 def test_thermal_short_cuts_are_the_formulas_value_exactly():
     # the powers left out at zero are exactly what evaluating them gives
-    for base in (6.0, 10.0 + T._forced.py_func(13.0, 0.5, 30.0)):
+    for base in (6.0, 10.0 + T.FORCED_H * T._speed_term.py_func(13.0)):
         assert T._h_air(0.0, base) == base + 6.0 * (0.0 / 1000.0) ** 0.3
         assert T._h_air(-0.0, base) == base
-    for share, ref in ((0.5, 30.0), (1.0, 30.0), (0.75, 21.0)):
-        assert T._forced(0.0, share, ref) == 60.0 * (abs(share * 0.0) / ref) ** 0.6
-        assert T._forced(12.5, share, ref) == 60.0 * (abs(share * 12.5) / ref) ** 0.6
+    assert T._speed_term(0.0) == 0.0**0.6 and T._speed_term(-0.0) == 0.0
+    # one power of the speed for the three coefficients: ADVISOR's form to round-off
+    for share, ref, c in ((0.5, 30.0, T.FORCED_X), (1.0, 30.0, T.FORCED_H), (0.75, 21.0, T.FORCED_E)):
+        for v in (0.3, 12.5, 41.0):
+            assert c * T._speed_term(v) == pytest.approx(60.0 * (share * v / ref) ** 0.6, rel=1e-14)
 
 
 def test_a_step_with_no_heat_at_ambient_changes_nothing_and_one_degree_off_does(sim):

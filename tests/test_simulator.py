@@ -217,6 +217,43 @@ def test_adhesion_and_force_speed_solution():
     assert mean_speed_for_force(0.0, 1000.0, s, c, 1.0, ch) == 0.0
 
 
+def test_force_limited_step_converges_from_the_envelope_and_without_it(sim):
+    """A force-limited step's speed is the fixed point v = v_bought(F(v)) to SPEED_TOL, whether the solve starts
+    from the previous step's point on the full-power envelope or from the fixed-point step (no envelope), and
+    a stale envelope (far away, wrong slope) costs iterations, not the answer."""
+    from hevlib.drive import N_R, NO_ENVELOPE, ON, R_N_BAT, _limited_split, chassis, pack_limits, split_design
+    from hevlib.powertrain import hybrid as split
+
+    row = sim._rows(np.array([[25, 20, 5, 4.5, 10, 78, 30]], dtype=float), "hybrid")[0]
+    assert row.shape == (N_R,)
+    c, E, M, G = sim._cfg["hybrid"], sim._E_h, sim._M, sim._G
+    d = split_design(row, c)
+    ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c), c)
+    p_dis, p_chg = pack_limits(0.6, row[R_N_BAT], c, sim._B)
+    sn, cs = np.sin(np.arctan(0.2)), np.cos(np.arctan(0.2))
+    f_cmd = 1e5  # far beyond what the driveline gives: every step is force-limited
+
+    def solve(v0, v_req, env):
+        lim = split.limits(v_req, d, E, M, G)
+        st = split.dispatch(lim, f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0, d, E, M, G)
+        st, v, u, env = _limited_split(
+            v0, v_req, v_req, f_cmd, ON, p_dis, p_chg, 1.0, sn, cs, 1.0, st, env, d, ch, E, M, G
+        )
+        lim = split.limits(v, d, E, M, G)
+        assert st == split.dispatch(lim, f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0, d, E, M, G)  # the state at v
+        assert abs(u - v) <= SPEED_TOL and u == mean_speed_for_force(v0, st.f_del, sn, cs, 1.0, ch)
+        assert st.f_del < f_cmd and v < v_req
+        return v, env
+
+    v1, env = solve(4.0, 12.0, NO_ENVELOPE)
+    assert env[0] == v1 and env[2] < 0.0  # the envelope: force falls with speed at full power
+    for v0 in (4.0, 4.05, 3.9, 6.0):
+        v_cold, _ = solve(v0, 12.0, NO_ENVELOPE)
+        v_warm, _ = solve(v0, 12.0, env)
+        v_stale, _ = solve(v0, 12.0, (15.0, 50.0, 40.0))
+        assert abs(v_warm - v_cold) <= 2 * SPEED_TOL and abs(v_stale - v_cold) <= 2 * SPEED_TOL
+
+
 # ------------------------------------------------------------------------------------ driving
 def test_weak_designs_fall_behind_on_the_grade_strong_ones_follow_flat(sim, cycles, params):
     weak = np.array([[25, 20, 5, 2.0, 10, 78, 30]], dtype=float)

@@ -246,18 +246,26 @@ def substeps(k: np.ndarray, t: ThermalConfig, dt: float, w_flow_max: float) -> f
     return float(max(1, int(np.ceil(dt * worst / 0.5))))
 
 
+#: ADVISOR's forced-convection coefficient ``60 (|share v| / v_ref)^0.6`` W/(m^2 K) (speed in m/s, as its code)
+#: of the engine bay (half the vehicle speed, v_ref 30), the hood (full speed, 30) and the exhaust (0.75, 21), as
+#: ``FORCED_* v^0.6``: one power of the speed per step serves all three.
+FORCED_X, FORCED_H, FORCED_E = (
+    60.0 * (share / v_ref) ** 0.6 for share, v_ref in ((0.5, 30.0), (1.0, 30.0), (0.75, 21.0))
+)
+
+
 @njit(cache=True, inline="always")
-def _forced(v_mps: float, v_share: float, v_ref: float) -> float:
-    """Forced-convection part of ADVISOR's air-side coefficient, W/(m^2 K) (speed in m/s, as its code);
-    exactly 0 at standstill, where the power is not evaluated."""
+def _speed_term(v_mps: float) -> float:
+    """``|v|^0.6`` of the forced-convection coefficients (exactly 0 at standstill, where the power is not
+    evaluated)."""
     if v_mps == 0.0:
         return 0.0
-    return 60.0 * (abs(v_share * v_mps) / v_ref) ** 0.6
+    return abs(v_mps) ** 0.6
 
 
 @njit(cache=True, inline="always")
 def _h_air(dt_k: float, base_forced: float) -> float:
-    """ADVISOR's air-side coefficient, W/(m^2 K): ``base_forced`` (its base 6 or 10 plus :func:`_forced`)
+    """ADVISOR's air-side coefficient, W/(m^2 K): ``base_forced`` (its base 6 or 10 plus the forced part, ``FORCED_*``)
     plus natural convection ``6 (|dT| / 1000)^0.3`` (exactly none between equal temperatures, where the power
     is not evaluated)."""
     if dt_k == 0.0:
@@ -367,9 +375,10 @@ def thermal_step(
         q_exo = max(q_exo, 0.0)
     h_gas = 23.0 * (flow / 10.0) ** 0.8 if flow > 0.0 else 0.0
     # air-side coefficients' base + forced parts (ADVISOR: engine bay at half, exhaust at 0.75 of the speed)
-    hb_x = 6.0 + _forced(v_mps, 0.5, 30.0)
-    hb_h = 10.0 + _forced(v_mps, 1.0, 30.0)
-    hb_e = 6.0 + _forced(v_mps, 0.75, 21.0)
+    v_06 = _speed_term(v_mps)
+    hb_x = 6.0 + FORCED_X * v_06
+    hb_h = 10.0 + FORCED_H * v_06
+    hb_e = 6.0 + FORCED_E * v_06
     n_sub = int(k[K_N_SUB])
     h = dt / n_sub
     ax, a_hood = k[K_AX], t.a_hood_m2
