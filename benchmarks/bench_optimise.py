@@ -5,7 +5,7 @@
 Stand-ins (no trained model needed): for ``bnn`` a torch MLP 7-20-11 with random weights, input and
 output standardisation and the design-space check of every call (the BNN's predict path); for
 ``regression`` one linear model per objective with the study's kind of terms (numpy). The mass is the
-simulator's analytic mass model when ``hevlib.simulate`` exists, else a linear stand-in. Prints one
+simulator's analytic mass model when ``hevlib.sim.simulator`` exists, else a linear stand-in. Prints one
 line per algorithm (optimiser wall time, evaluations, front size) and the total against the 10-minute
 bar of issue 6 (re-simulation excluded: it depends on the simulator).
 """
@@ -61,7 +61,7 @@ class LinearStandIn:
 
 def _mass_function(params):
     try:
-        from hevlib.simulate import Simulator
+        from hevlib.sim.simulator import Simulator
     except ImportError:
         coef = np.array([1.6, 0.9, 0.9, 0.0, 1.5, 0.0, 0.0])
         return (lambda X: 1040.0 + np.asarray(X) @ coef), "linear stand-in"

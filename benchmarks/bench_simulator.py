@@ -71,7 +71,7 @@ def _setup(params_path: Path = ROOT / "params.yaml", **sim_update):
     """The simulator on the repository's params (data paths absolute, ``sim`` keys overridden) and cycles."""
     from hevlib.cycles import build_cycles
     from hevlib.params import load_params
-    from hevlib.simulate import Simulator
+    from hevlib.sim.simulator import Simulator
     from hevlib.sizing import study_library
 
     params = load_params(params_path)
@@ -95,7 +95,7 @@ def _cold_compile() -> dict:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)
         code = (
             "import time, sys; sys.path.insert(0, sys.argv[1]); t0 = time.perf_counter();"
-            "from hevlib.params import load_params; from hevlib.simulate import warm_up;"
+            "from hevlib.params import load_params; from hevlib.sim.simulator import warm_up;"
             "p = load_params(sys.argv[1] + '/params.yaml');"
             "p = p.model_copy(update={'baseline': p.baseline.model_copy("
             "update={'components_dir': sys.argv[1] + '/' + p.baseline.components_dir})});"

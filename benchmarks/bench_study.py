@@ -48,7 +48,7 @@ def simulate(n: int, part: int, seed: int, data: Path) -> dict:
 
     from hevlib.cycles import Cycle
     from hevlib.doe import doe_table, run_metadata, write_doe
-    from hevlib.simulate import Simulator
+    from hevlib.sim.simulator import Simulator
 
     params = _params()
     t0 = time.perf_counter()

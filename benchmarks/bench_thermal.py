@@ -2,7 +2,7 @@
 
     python benchmarks/bench_thermal.py [--designs 10000] [--steps 1370]
 
-Runs :func:`hevlib.powertrain.thermal.thermal_step` alone (what each drive step of either kernel calls,
+Runs :func:`hevlib.sim.powertrain.thermal.thermal_step` alone (what each drive step of either kernel calls,
 with the light-off check), in parallel over designs as the kernels do, on a synthetic duty: engine on 4 s
 in 7 at a steady part load (1.2 g/s fuel, 20 kW waste heat, 250 rad/s), 10 m/s, engines of 40-69 kW. A
 drive kernel cannot beat this figure on a cycle of the same length, whatever its driveline solver costs.
@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 from numba import njit, prange
 
-from hevlib.powertrain import layout as L
-from hevlib.powertrain import thermal as th_
+from hevlib.sim.powertrain import layout as L
+from hevlib.sim.powertrain import thermal as th_
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -45,8 +45,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=1370, help="drive steps per design (UDDS: 1370)")
     args = ap.parse_args()
     from hevlib.params import load_params
-    from hevlib.powertrain.thermal import start_temperatures
-    from hevlib.simulate import Simulator
+    from hevlib.sim.powertrain.thermal import start_temperatures
+    from hevlib.sim.simulator import Simulator
     from hevlib.sizing import study_library
 
     p = load_params(ROOT / "params.yaml")
@@ -54,7 +54,7 @@ def main() -> None:
         update={"baseline": p.baseline.model_copy(update={"components_dir": str(ROOT / p.baseline.components_dir)})}
     )
     sim = Simulator(study_library(p.baseline, ROOT / "data" / "raw" / "paper"), p)
-    X = sim._thermal["hybrid"]
+    X = sim.library.thermal["hybrid"]
     t_init = start_temperatures("cold", p.sim.ambient_c, X.t_stat_c)
     _run(2, 3, X, t_init)  # compile
     t0 = time.perf_counter()

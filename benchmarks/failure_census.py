@@ -22,7 +22,7 @@ from hevlib.cycles import Cycle
 from hevlib.design import DESIGN_VARS, OBJECTIVES
 from hevlib.doe import l27_designs, lhs_designs
 from hevlib.params import load_params
-from hevlib.simulate import Simulator
+from hevlib.sim.simulator import Simulator
 
 
 def census(sim: Simulator, cycle: Cycle, n: int, seed: int) -> dict:

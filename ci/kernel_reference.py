@@ -53,7 +53,7 @@ def main() -> None:
     sys.path.insert(0, str(ROOT))
     from hevlib.cycles import build_cycles
     from hevlib.params import load_params
-    from hevlib.simulate import Simulator
+    from hevlib.sim.simulator import Simulator
     from hevlib.sizing import study_library
 
     p = load_params(ROOT / "params.yaml")

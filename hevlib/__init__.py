@@ -16,9 +16,16 @@ MODEL_VERSION = "sim-3"
 #: Modules compiled by numba. Its on-disk cache keys a kernel on its own file only, not on the
 #: modules it calls, so the cache lives in a folder named after a hash of all of them: editing any
 #: kernel module starts a fresh cache instead of silently reusing stale machine code.
-_KERNEL_SOURCES = ("control.py", "drive.py", "performance.py", "powertrain")
+_KERNEL_SOURCES = ("sim/control.py", "sim/drive.py", "sim/performance.py", "sim/powertrain")
 #: Everything that changes a simulated response (kernels, responses, component data handling).
-SIMULATOR_SOURCES = (*_KERNEL_SOURCES, "simulate.py", "components.py", "sizing.py", "cycles.py")
+SIMULATOR_SOURCES = (
+    *_KERNEL_SOURCES,
+    "sim/simulator.py",
+    "sim/vehicles.py",
+    "components.py",
+    "sizing.py",
+    "cycles.py",
+)
 
 
 def source_hash(names=_KERNEL_SOURCES) -> str:

@@ -14,7 +14,7 @@ import pandas as pd
 
 from hevlib.cycles import Cycle
 from hevlib.design import BOOL_RESPONSES, RESPONSES
-from hevlib.simulate import Simulator, energy_balance
+from hevlib.sim.simulator import Simulator, energy_balance
 
 BASELINE_VEHICLES: tuple[str, ...] = ("prius", "conventional")
 

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from hevlib.io import atomic_path, read_table, read_yaml_mapping, write_json
-from hevlib.powertrain.lookup import interp_map
+from hevlib.sim.powertrain.lookup import interp_map
 
 RPM = np.pi / 30.0  # rad/s per rpm
 

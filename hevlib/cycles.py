@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -39,6 +39,23 @@ CYCLE_SCHEMA = pa.schema(
 )
 #: Columns every cycle file must have (``key_on`` defaults to all True when absent).
 REQUIRED_COLUMNS = ("time_s", "speed_mps", "grade")
+
+
+class KernelCycle(NamedTuple):
+    """A drive cycle as the simulator's kernels read it (:meth:`Cycle.to_kernel`): per step the speed asked for,
+    the grade (rise/run) and the sine and cosine of its angle, and whether the key is on."""
+
+    v_ref: np.ndarray  # m/s
+    grade: np.ndarray
+    sin_g: np.ndarray
+    cos_g: np.ndarray
+    key_on: np.ndarray  # bool
+
+
+def grade_trig(grade: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(sin, cos) of the road angle for grades given as rise/run (``theta = atan(rise/run)``)."""
+    theta = np.arctan(np.asarray(grade, dtype=float))
+    return np.ascontiguousarray(np.sin(theta)), np.ascontiguousarray(np.cos(theta))
 
 
 class CycleError(ValueError):
@@ -103,6 +120,12 @@ class Cycle:
     def with_grade(self, grade: float) -> Cycle:
         """The same trace on a constant road grade (rise/run)."""
         return Cycle(self.name, self.time_s, self.speed_mps, np.full(self.n_steps, float(grade)), self.key_on)
+
+    def to_kernel(self) -> KernelCycle:
+        """This cycle as the kernels read it (contiguous arrays; the road angle's sine and cosine once)."""
+        sin_g, cos_g = grade_trig(self.grade)
+        f = np.ascontiguousarray
+        return KernelCycle(f(self.speed_mps, float), f(self.grade, float), sin_g, cos_g, f(self.key_on, bool))
 
     # ------------------------------------------------------------------ persistence
     def to_parquet(self, path: str | Path) -> None:

@@ -129,7 +129,7 @@ class SimParams(_Strict):
     emissions: Literal["tailpipe", "engine_out"] = "tailpipe"  # what the hc, co, nox objectives are
     start: dict[str, Literal["cold", "hot"]] = {}  # thermal start state per cycle name (absent: cold)
     cold_correction: Literal["none", "advisor"] = "advisor"  # cold-engine fuel/emission factors (no cold maps)
-    # where batches of designs run (hevlib/executor.py); results do not depend on it
+    # where batches of designs run (hevlib/sim/executor.py); results do not depend on it
     executor: Literal["local", "dask"] = "local"
     scheduler: str | None = None  # dask: scheduler address (tcp://host:8786); unset: a LocalCluster per stage
     workers: Annotated[int, Field(ge=1, le=4096)] | None = None  # LocalCluster worker processes (unset: 1 per core)

@@ -1,6 +1,6 @@
 """What ``hev warmup`` compiled and how long each function took, from numba's ``numba:compile`` events.
 
-Kept apart from :mod:`hevlib.simulate`: timing and printing the compiler are not part of the simulator,
+Kept apart from :mod:`hevlib.sim.simulator`: timing and printing the compiler are not part of the simulator,
 whose source fingerprint goes into every simulated table.
 """
 
@@ -53,10 +53,10 @@ def compile_times(events) -> list[CompileTime]:
 
 
 def timed_warm_up(params: Params, paper_dir: str | Path = "data/raw/paper") -> list[CompileTime]:
-    """:func:`hevlib.simulate.warm_up` with numba's compile events recorded: what it compiled, how long."""
+    """:func:`hevlib.sim.simulator.warm_up` with numba's compile events recorded: what it compiled, how long."""
     from numba.core.event import install_recorder
 
-    from hevlib.simulate import warm_up
+    from hevlib.sim.simulator import warm_up
 
     with install_recorder("numba:compile") as recorder:
         warm_up(params, paper_dir)

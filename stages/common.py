@@ -68,7 +68,7 @@ def cycle_named(name: str):
 
 def simulator(params):
     """The simulator on the components stage's normalised maps."""
-    from hevlib.simulate import Simulator  # numba kernels: only loaded to simulate
+    from hevlib.sim.simulator import Simulator  # numba kernels: only loaded to simulate
 
     sim = Simulator.from_params(params, components_dir=str(COMPONENTS_DIR))
     _OPEN.append(sim)  # closed when the stage ends (stage)

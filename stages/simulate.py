@@ -10,7 +10,7 @@ import typer
 
 from hevlib.design import read_designs
 from hevlib.io import write_table
-from hevlib.simulate import VEHICLES, with_inputs
+from hevlib.sim.simulator import VEHICLES, with_inputs
 from stages.cli import app
 from stages.common import PARAMS_OPTION, cycle_named, params_from, simulator, stage
 

@@ -40,7 +40,7 @@ def lib(params: Params) -> ComponentLibrary:
 @pytest.fixture(scope="session")
 def sim(lib: ComponentLibrary, params: Params):
     """The simulator on the study's library and the repository's params."""
-    from hevlib.simulate import Simulator
+    from hevlib.sim.simulator import Simulator
 
     return Simulator(lib, params)
 

@@ -11,10 +11,10 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from hevlib.powertrain import thermal as T
-from hevlib.powertrain.borrow import borrowed
-from hevlib.powertrain.layout import N_O
-from hevlib.powertrain.lookup import interp1_np
+from hevlib.sim.powertrain import thermal as T
+from hevlib.sim.powertrain.borrow import borrowed
+from hevlib.sim.powertrain.layout import N_O
+from hevlib.sim.powertrain.lookup import interp1_np
 
 
 @intrinsic
@@ -93,7 +93,7 @@ def test_thermal_short_cuts_are_the_formulas_value_exactly():
 
 
 def test_a_step_with_no_heat_at_ambient_changes_nothing_and_one_degree_off_does(sim):
-    cfg = sim._thermal["hybrid"]
+    cfg = sim.library.thermal["hybrid"]
     k = T.design_constants(40.0, cfg, 1.0, 60.0)
     q = np.zeros(T.N_NODES)
     temp = np.full(T.N_NODES, cfg.amb_c)

@@ -1,4 +1,4 @@
-"""The fuzzy rule base of SPEC section 4 (``hevlib.control``): rows 1-5 plus coverage rules 6, 7.
+"""The fuzzy rule base of SPEC section 4 (``hevlib.sim.control``): rows 1-5 plus coverage rules 6, 7.
 
 Test points are built from the repository's ``pms`` thresholds (params.yaml), each input placed
 outside every fuzzy transition band, so the tests stay valid if the defaults move. Levels:
@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hevlib.control import above, decide, rule_strengths, thresholds
+from hevlib.sim.control import above, decide, rule_strengths, thresholds
 
 KEYS = ("soc_low", "soc_high", "grade_low", "grade_high", "speed_high_kmh", "torque_low", "torque_high")
 INPUTS = ("soc", "grade", "speed", "torque")

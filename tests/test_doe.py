@@ -91,7 +91,7 @@ def test_doe_designs_methods_and_sources():
 
 # ------------------------------------------------------------------------------------- DOE table
 class FakeSimulator:
-    """Stands in for hevlib.simulate.Simulator: smooth responses, batch-wise progress."""
+    """Stands in for hevlib.sim.simulator.Simulator: smooth responses, batch-wise progress."""
 
     calls = 0
 

@@ -9,9 +9,9 @@ import pandas as pd
 import pytest
 
 from hevlib import doe
-from hevlib.executor import DaskExecutor, LocalExecutor, executor_for
 from hevlib.params import ParamsError, load_params
-from hevlib.simulate import Simulator
+from hevlib.sim.executor import DaskExecutor, LocalExecutor, executor_for
+from hevlib.sim.simulator import Simulator
 
 
 @pytest.fixture(scope="module")

@@ -11,13 +11,13 @@ import pytest
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, SENSE, DesignSpace
 from hevlib.doe import l27_designs, lhs_designs
-from hevlib.drive import conventional_equivalent_mass_kg, split_design, split_equivalent_mass_kg
 from hevlib.io import read_yaml_mapping
 from hevlib.optimise import ALGORITHMS, HevProblem, drop_stalled, optimise, optimise_and_resimulate
 from hevlib.params import AlgoParams
 from hevlib.pareto import screening_rules, select_designs
-from hevlib.powertrain import hybrid as split
-from hevlib.simulate import energy_balance
+from hevlib.sim.drive import conventional_equivalent_mass_kg, split_design, split_equivalent_mass_kg
+from hevlib.sim.powertrain import hybrid as split
+from hevlib.sim.simulator import energy_balance, failure_ceilings
 
 #: L27 design 25's gear set (n_r 78, n_s 18, k = 4.33) with the smallest motor, battery and i0: too weak
 #: to start on the 20 % grade of the sizing cycle.
@@ -63,8 +63,8 @@ def test_engine_min_speed_is_the_maps_lowest_and_lets_k_433_run_at_standstill(si
     ps = lib.power_split
     assert ps.engine_min_on_speed_rad_s == pytest.approx(lib.engine_hybrid.speed_rad_s[0])
     assert ps.engine_min_on_speed_rad_s == pytest.approx(1000 * np.pi / 30)
-    row = sim._rows(STALLS[None, :], "hybrid")[0]
-    d = split_design(row, sim._cfg["hybrid"])
+    veh = sim.vehicle(STALLS[None, :]).kernel
+    d = split_design(veh.rows[0], veh.c)
     lo, hi = split.engine_window(0.0, d)
     assert lo <= hi  # 5500 rpm / (1 + 78/18) = 1031 rpm >= 1000 rpm
 
@@ -124,7 +124,7 @@ def test_speed_dev_is_the_share_of_time_off_the_trace(sim, cycles, params):
 def test_failed_per_km_figures_take_the_ceiling_no_working_design_reaches(sim, cycles, params):
     cyc = cycles["udds"]
     r = sim.run(np.vstack([STALLS, WORKS]), cyc)
-    ceil = sim._failure_ceilings(cyc)
+    ceil = failure_ceilings(cyc, sim.library)
     for k in ("fc", "hc", "co", "nox"):
         assert r.loc[0, k] >= ceil[k] > r.loc[1, k]
     # the ceiling is what the largest engine could burn over the whole cycle, over the share threshold
@@ -252,7 +252,7 @@ def test_spun_engine_is_motored_with_its_fuel_cut(sim, cycles):
     assert spun.sum() > 10
     assert (tr.loc[spun, "fuel_g_s"] == 0).all()
     assert (tr.loc[spun, "t_eng_nm"] < 0).all()
-    w_g_max = sim._cfg["prius"].w_g_max
+    w_g_max = sim.library.configs["prius"].w_g_max
     assert (tr.loc[spun, "w_gen_rad_s"].abs() <= w_g_max * (1 + 1e-9)).all()
     braking = (tr["f_pt_n"] < -1e-6) | (tr["f_brake_n"] < -1e-6)
     assert braking.sum() > 10 and (braking & (tr["eng_on"] == 1)).sum() == 0  # never fired while braking
@@ -260,7 +260,7 @@ def test_spun_engine_is_motored_with_its_fuel_cut(sim, cycles):
 
 def test_regenerative_share_follows_each_wheel_file(sim, cycles, lib):
     for vehicle, wheel in (("prius", lib.wheel_prius), ("hybrid", lib.wheel_conventional)):
-        cfg = sim._cfg[vehicle]
+        cfg = sim.library.configs[vehicle]
         np.testing.assert_array_equal(cfg.brake_share, wheel.brake_driveline_share)
         X = None if vehicle == "prius" else WORKS[None, :]
         tr = sim.trace(X, cycles["ftp"], vehicle)
@@ -282,8 +282,8 @@ def test_soc_window_and_start_come_from_the_data(params, raw):
 
 
 def test_rotor_inertias_reflect_through_the_gear_set(sim, lib):
-    cfg = sim._cfg["prius"]
-    row = sim._rows(None, "prius")[0]
+    veh = sim.vehicle(None, "prius").kernel
+    cfg, row = veh.c, veh.rows[0]
     r, i0, k = cfg.r, 3.93, 78 / 30
     expected = (
         1404
@@ -293,7 +293,7 @@ def test_rotor_inertias_reflect_through_the_gear_set(sim, lib):
     assert split_equivalent_mass_kg(row, cfg) == pytest.approx(expected)
     assert 1.04 < expected / 1404 < 1.07  # the old constant 1.05 was about right for the Prius
     # the conventional car: the engine reflects through the gear in use (about +20 % in first)
-    cc, conv = sim._cfg["conventional"], sim._conv
+    cc, conv = sim.library.configs["conventional"], sim.library.gearbox
     first = conventional_equivalent_mass_kg(1195.0, 13.195, True, conv.s_eng, cc) / 1195.0 - 1
     fifth = conventional_equivalent_mass_kg(1195.0, 2.5984, True, conv.s_eng, cc) / 1195.0 - 1
     free = conventional_equivalent_mass_kg(1195.0, 13.195, False, conv.s_eng, cc) / 1195.0 - 1

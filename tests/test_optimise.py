@@ -407,7 +407,7 @@ def test_front_figure_draws(tmp_path):
 
 def test_resimulation_with_the_simulator_equals_a_direct_call(params, lib):
     from hevlib.cycles import build_cycles
-    from hevlib.simulate import Simulator
+    from hevlib.sim.simulator import Simulator
 
     sim = Simulator(lib, params)
     cycle = build_cycles(params.cycles)[params.cycles.sizing]

@@ -11,12 +11,13 @@ import pytest
 from hevlib.cycles import build_cycles
 from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
 from hevlib.doe import lhs_designs
-from hevlib.drive import R_MASS, SPEED_TOL, split_equivalent_mass_kg
-from hevlib.powertrain.battery import current_for_power, power_limits
-from hevlib.powertrain.layout import OUT_NAMES
-from hevlib.powertrain.planetary import carrier_speed, carrier_speed_window, split_torque, sun_speed
-from hevlib.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_total
-from hevlib.simulate import Simulator, energy_balance
+from hevlib.sim.drive import R_MASS, SPEED_TOL, split_equivalent_mass_kg
+from hevlib.sim.powertrain.battery import current_for_power, power_limits
+from hevlib.sim.powertrain.layout import OUT_NAMES
+from hevlib.sim.powertrain.planetary import carrier_speed, carrier_speed_window, split_torque, sun_speed
+from hevlib.sim.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_total
+from hevlib.sim.simulator import Simulator, energy_balance, simulate
+from hevlib.sim.vehicles import Vehicle
 
 PRIUS = [43.0, 31.0, 15.0, 3.93, 25, 78, 30]
 
@@ -221,15 +222,16 @@ def test_force_limited_step_converges_from_the_envelope_and_without_it(sim):
     """A force-limited step's speed is the fixed point v = v_bought(F(v)) to SPEED_TOL, whether the solve starts
     from the previous step's point on the full-power envelope or from the fixed-point step (no envelope), and
     a stale envelope (far away, wrong slope) costs iterations, not the answer."""
-    from hevlib.drive import N_R, NO_ENVELOPE, ON, R_N_BAT, _limited_split, chassis, pack_limits, split_design
-    from hevlib.powertrain import hybrid as split
+    from hevlib.sim.drive import N_R, NO_ENVELOPE, ON, R_N_BAT, _limited_split, chassis, pack_limits, split_design
+    from hevlib.sim.powertrain import hybrid as split
 
-    row = sim._rows(np.array([[25, 20, 5, 4.5, 10, 78, 30]], dtype=float), "hybrid")[0]
+    veh = sim.vehicle(pd.DataFrame([dict(zip(DESIGN_VARS, [25, 20, 5, 4.5, 10, 78, 30], strict=True))])).kernel
+    row = veh.rows[0]
     assert row.shape == (N_R,)
-    c, E, M, G = sim._cfg["hybrid"], sim._E_h, sim._M, sim._G
+    c, E, M, G = veh.c, veh.E, veh.M, veh.G
     d = split_design(row, c)
     ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c), c)
-    p_dis, p_chg = pack_limits(0.6, row[R_N_BAT], c, sim._B)
+    p_dis, p_chg = pack_limits(0.6, row[R_N_BAT], c, veh.B)
     sn, cs = np.sin(np.arctan(0.2)), np.cos(np.arctan(0.2))
     f_cmd = 1e5  # far beyond what the driveline gives: every step is force-limited
 
@@ -252,6 +254,57 @@ def test_force_limited_step_converges_from_the_envelope_and_without_it(sim):
         v_warm, _ = solve(v0, 12.0, env)
         v_stale, _ = solve(v0, 12.0, (15.0, 50.0, 40.0))
         assert abs(v_warm - v_cold) <= 2 * SPEED_TOL and abs(v_stale - v_cold) <= 2 * SPEED_TOL
+
+
+def test_vehicle_from_named_design_columns_in_any_order(sim, designs):
+    frame = pd.DataFrame(designs[:, ::-1], columns=list(DESIGN_VARS)[::-1])
+    frame["note"] = "extra columns are ignored"
+    named = Vehicle.from_design(sim.library, frame)
+    ordered = Vehicle.from_design(sim.library, designs)
+    np.testing.assert_array_equal(named.kernel.rows, ordered.kernel.rows)
+    np.testing.assert_array_equal(named.mass_kg, sim.mass_kg(designs))
+    assert named.n == len(designs) and list(named.design.columns) == list(DESIGN_VARS)
+    with pytest.raises(ValueError, match="missing column.*i0"):
+        Vehicle.from_design(sim.library, frame.drop(columns="i0"))
+    with pytest.raises(ValueError, match="n_bat"):
+        Vehicle.from_design(sim.library, frame.assign(n_bat=1000))
+
+
+def test_cycle_to_kernel_reads_the_trace_and_its_road_angle(cycles):
+    cyc = cycles["udds"]
+    k = cyc.to_kernel()
+    np.testing.assert_array_equal(k.v_ref, cyc.speed_mps)
+    np.testing.assert_array_equal(k.key_on, cyc.key_on)
+    theta = np.arctan(cyc.grade)
+    np.testing.assert_allclose(k.sin_g, np.sin(theta), rtol=0, atol=0)
+    np.testing.assert_allclose(k.cos_g, np.cos(theta), rtol=0, atol=0)
+    assert all(a.flags.c_contiguous for a in k)
+
+
+def test_simulate_is_pure_and_independent_of_how_a_batch_is_split(sim, cycles, designs, monkeypatch):
+    import numba
+
+    from hevlib.sim import simulator
+
+    veh = Vehicle.from_design(sim.library, designs[:9])
+    a = simulate(veh, cycles["ftp"])
+    b = simulate(veh, cycles["ftp"])
+    monkeypatch.setattr(simulator, "CHUNKS_PER_THREAD", 3)  # other chunk edges on the threads
+    c = simulate(veh, cycles["ftp"])
+    numba.set_num_threads(1)
+    try:
+        d = simulate(veh, cycles["ftp"])
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    one = [simulate(Vehicle.from_design(sim.library, designs[[i]]), cycles["ftp"]) for i in (0, 8)]
+    for r in (b, c, d):
+        np.testing.assert_array_equal(r.out, a.out)
+        np.testing.assert_array_equal(r.perf, a.perf)
+    np.testing.assert_array_equal(np.vstack([one[0].out, one[1].out]), a.out[[0, 8]])
+    assert (
+        veh.kernel.rows.flags.writeable
+        and (veh.kernel.rows == Vehicle.from_design(sim.library, designs[:9]).kernel.rows).all()
+    )
 
 
 # ------------------------------------------------------------------------------------ driving
@@ -305,8 +358,8 @@ def test_performance_limits(sim, cycles, designs, lib, params):
     body = lib.body_conventional
     a_adh = params.sim.adhesion_coefficient * body.gravity_m_s2 * body.front_weight_fraction
     # tyres, not the driveline, cap it: the adhesion force accelerates the equivalent (rotating) mass
-    rows = sim._rows(designs, "hybrid")
-    m_ratio = np.array([row[R_MASS] / split_equivalent_mass_kg(row, sim._cfg["hybrid"]) for row in rows])
+    veh = sim.vehicle(designs).kernel
+    m_ratio = np.array([row[R_MASS] / split_equivalent_mass_kg(row, veh.c) for row in veh.rows])
     assert (m_ratio < 1.0).all()
     assert (r["f_max"] <= a_adh * m_ratio + 1e-6).all()
     assert (r["f_max"] > 0).all()

@@ -739,9 +739,9 @@ def _project(tmp_path: Path, monkeypatch, **edits) -> CliRunner:
     shutil.copytree(REPO / "data" / "raw" / "paper", tmp_path / "data" / "raw" / "paper")
     monkeypatch.chdir(tmp_path)
     sizing_cycle().to_parquet("data/cycles/udds.parquet")
-    fake = types.ModuleType("hevlib.simulate")
+    fake = types.ModuleType("hevlib.sim.simulator")
     fake.Simulator = FakeSimulator
-    monkeypatch.setitem(sys.modules, "hevlib.simulate", fake)
+    monkeypatch.setitem(sys.modules, "hevlib.sim.simulator", fake)
     return CliRunner()
 
 

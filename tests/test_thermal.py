@@ -9,16 +9,16 @@ import yaml
 
 from hevlib.cycles import Cycle
 from hevlib.doe import lhs_designs
-from hevlib.powertrain import thermal as T
-from hevlib.powertrain.layout import N_O, OUT_NAMES
-from hevlib.simulate import Simulator, energy_balance
+from hevlib.sim.powertrain import thermal as T
+from hevlib.sim.powertrain.layout import N_O, OUT_NAMES
+from hevlib.sim.simulator import Simulator, energy_balance
 
 PRIUS = [43.0, 31.0, 15.0, 3.93, 25, 78, 30]
 
 
 @pytest.fixture(scope="module")
 def cfg(sim) -> T.ThermalConfig:
-    return sim._thermal["conventional"]
+    return sim.library.thermal["conventional"]
 
 
 def _isolated_monolith(cfg: T.ThermalConfig, *, g_shell: float, c_shell: float) -> tuple[np.ndarray, T.ThermalConfig]:

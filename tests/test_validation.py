@@ -60,7 +60,7 @@ PRIUS = {
 
 
 class FakeSimulator:
-    """Deterministic stand-in for hevlib.simulate.Simulator: responses are simple functions of the design."""
+    """Deterministic stand-in for hevlib.sim.simulator.Simulator: responses are simple functions of the design."""
 
     calls: list = []
 
@@ -225,9 +225,9 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
 
     shutil.copy(REPO / "params.yaml", tmp_path / "params.yaml")
     monkeypatch.chdir(tmp_path)
-    fake = types.ModuleType("hevlib.simulate")
+    fake = types.ModuleType("hevlib.sim.simulator")
     fake.Simulator = FakeSimulator
-    monkeypatch.setitem(sys.modules, "hevlib.simulate", fake)
+    monkeypatch.setitem(sys.modules, "hevlib.sim.simulator", fake)
     runner = CliRunner()
     assert runner.invoke(app, ["validate"]).exit_code == 1  # nothing there yet: one-line error
     for name in ("ftp", "hwfet"):

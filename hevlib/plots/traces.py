@@ -14,7 +14,7 @@ from hevlib.plots import plt, save_figure
 def plot_hybrid_trace(trace: pd.DataFrame, engine: EngineMap, path: str | os.PathLike, *, title: str) -> None:
     """Three panels: reference vs achieved speed, SOC, and engine operating points over BSFC contours.
 
-    ``trace``: one design's :meth:`hevlib.simulate.Simulator.trace` frame; ``engine``: the design's
+    ``trace``: one design's :meth:`hevlib.sim.simulator.Simulator.trace` frame; ``engine``: the design's
     engine map already scaled to its power (so the contours are the ones it runs on).
     """
     fig = plt.figure(figsize=(12.0, 8.0))

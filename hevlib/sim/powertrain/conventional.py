@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from hevlib.powertrain.engine import EngineArrays, max_torque
+from hevlib.sim.powertrain.engine import EngineArrays, max_torque
 
 
 class ConvDesign(NamedTuple):

@@ -7,7 +7,7 @@ full load and speed window, generator torque and speed, motor torque, battery po
 driveline cannot deliver shows up as ``f_del < f_req`` (traction) or as friction braking (braking).
 
 Torque conventions (steady state; the rotor inertias the vehicle accelerates are in its equivalent
-mass, :func:`hevlib.drive.split_equivalent_mass_kg`): carrier torque ``t_e`` splits into ``t_e k/(1+k)``
+mass, :func:`hevlib.sim.drive.split_equivalent_mass_kg`): carrier torque ``t_e`` splits into ``t_e k/(1+k)``
 on the ring (times the gear-set efficiency) and ``t_e/(1+k)`` on the sun, which the generator reacts
 with ``t_g = -t_e/(1+k)`` (``k = N_r/N_s``).
 
@@ -22,9 +22,9 @@ from typing import NamedTuple
 
 from numba import njit
 
-from hevlib.powertrain.engine import EngineArrays, drag_torque, line_speed, max_torque
-from hevlib.powertrain.machines import MachineArrays, electric_power, torque_for_power, torque_limit
-from hevlib.powertrain.planetary import carrier_speed_window, sun_speed
+from hevlib.sim.powertrain.engine import EngineArrays, drag_torque, line_speed, max_torque
+from hevlib.sim.powertrain.machines import MachineArrays, electric_power, torque_for_power, torque_limit
+from hevlib.sim.powertrain.planetary import carrier_speed_window, sun_speed
 
 
 class SplitDesign(NamedTuple):

@@ -1,10 +1,10 @@
 """Longitudinal vehicle dynamics (numba): road loads, front-axle adhesion, and the speed a force buys.
 
 Forces in N, speeds in m/s; the road grade enters as ``sin_t``/``cos_t`` of its angle
-(``theta = atan(rise/run)``, precomputed once per cycle step by :func:`grade_trig`). ``m`` is the test mass;
-``m_eff`` adds the rotating inertias the vehicle accelerates (wheels, and the driveline's rotors reflected
-through its ratios: :func:`hevlib.drive.split_equivalent_mass_kg`, :func:`hevlib.drive.conventional_equivalent_mass_kg`)
-to the translational mass. Road loads are
+(``theta = atan(rise/run)``, precomputed once per cycle step by :func:`hevlib.cycles.grade_trig`). ``m`` is the
+test mass; ``m_eff`` adds the rotating inertias the vehicle accelerates (wheels, and the driveline's rotors
+reflected through its ratios: :func:`hevlib.sim.drive.split_equivalent_mass_kg`,
+:func:`hevlib.sim.drive.conventional_equivalent_mass_kg`) to the translational mass. Road loads are
 evaluated at the step's mean speed ``v_avg``, so that with ``a = 2 (v_avg - v0) / dt``
 
     F_traction + F_brake = m_eff * a + F_road(v_avg)
@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numpy as np
 from numba import njit
 
 
@@ -35,12 +34,6 @@ class Chassis(NamedTuple):
     mu: float  # tyre-road adhesion coefficient
     rho: float  # air density, kg/m^3
     g: float  # gravity, m/s^2
-
-
-def grade_trig(grade: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(sin, cos) of the road angle for grades given as rise/run."""
-    theta = np.arctan(np.asarray(grade, dtype=float))
-    return np.ascontiguousarray(np.sin(theta)), np.ascontiguousarray(np.cos(theta))
 
 
 @njit(cache=True, inline="always")

@@ -137,7 +137,7 @@ OUT_NAMES = (
     "t_cat_end_c",
     "t_cat_max_c",
 )
-#: Heat balance of the thermal nodes (hevlib.powertrain.thermal): stored heat change = sources - sinks.
+#: Heat balance of the thermal nodes (hevlib.sim.powertrain.thermal): stored heat change = sources - sinks.
 THERMAL_SOURCES = ("q_cyl_j", "q_exhaust_j", "q_exotherm_j")
 THERMAL_SINKS = ("q_tailpipe_j", "q_radiator_j", "q_ambient_j")
 #: Sinks of the energy balance (sources: e_fuel_j + e_batt_j).

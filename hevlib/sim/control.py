@@ -27,9 +27,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from hevlib.powertrain.engine import EngineArrays, line_power_for_torque, max_torque
-from hevlib.powertrain.hybrid import SplitDesign, SplitLimits
-from hevlib.powertrain.machines import MachineArrays, electric_power
+from hevlib.sim.powertrain.engine import EngineArrays, line_power_for_torque, max_torque
+from hevlib.sim.powertrain.hybrid import SplitDesign, SplitLimits
+from hevlib.sim.powertrain.machines import MachineArrays, electric_power
 
 
 @njit(cache=True, inline="always")
@@ -125,7 +125,7 @@ def supervise(
     whenever it can and the battery alone cannot carry the traction or the accessory load), then the
     fuzzy rule base, then the minimum on/off times. The engine is fuel-cut while braking; an engine that
     is off while the ring turns fast enough to overspeed a stopped generator is spun by the gear set with
-    its fuel cut (:func:`hevlib.powertrain.hybrid.dispatch`), not fired.
+    its fuel cut (:func:`hevlib.sim.powertrain.hybrid.dispatch`), not fired.
     Target power: ring demand plus accessories plus a charging share (fuzzy charge degree or SOC
     below target), floored at ``p_min_w``, capped by what the engine can give; boost = full power.
     """

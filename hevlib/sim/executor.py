@@ -1,7 +1,7 @@
 """Executors: where batches of designs are simulated (this process, or a Dask cluster).
 
 Every batch the pipeline simulates (DOE, held-out set, re-simulation, oracle, infill rounds, validation)
-goes through :meth:`hevlib.simulate.Simulator.run`, which splits the designs into batches and hands them
+goes through :meth:`hevlib.sim.simulator.Simulator.run`, which splits the designs into batches and hands them
 to its executor's :meth:`map`. Batches are independent (each design is simulated on its own), so where
 they run cannot change a result: the results come back in batch order and are concatenated exactly as
 the local executor concatenates them.

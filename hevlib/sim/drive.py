@@ -1,11 +1,11 @@
-"""Forward-facing drive-cycle kernels (numba), parallel over designs.
+"""Forward-facing drive-cycle kernels (numba), one design at a time, GIL released (threads run chunks).
 
 Each step the driver asks for the force that takes the vehicle from its achieved speed ``v0`` to the
 cycle's next speed; the supervisory controller decides the engine state; the driveline delivers what
 its limits (and front-axle adhesion) allow; the achieved speed follows from the force actually
 delivered. A force-limited step is solved as a fixed point (speed -> available force -> speed), so
 weak designs fall behind the trace instead of breaking physics. Results accumulate per design in the
-``O_*`` columns of :mod:`hevlib.powertrain.layout`; full traces only for designs asked to record.
+``O_*`` columns of :mod:`hevlib.sim.powertrain.layout`; full traces only for designs asked to record.
 """
 
 from __future__ import annotations
@@ -13,20 +13,21 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
-from hevlib.control import PmsConfig, supervise
-from hevlib.powertrain import conventional as conv
-from hevlib.powertrain import hybrid as split
-from hevlib.powertrain import layout as L  # O_*, T_* column indices (compile-time constants)
-from hevlib.powertrain import thermal as th_
-from hevlib.powertrain.battery import current_for_power, power_limits
-from hevlib.powertrain.borrow import borrowed
-from hevlib.powertrain.engine import EngineArrays, max_torque, rates
-from hevlib.powertrain.lookup import cell, interp1_np
-from hevlib.powertrain.machines import MachineArrays, torque_limit
-from hevlib.powertrain.scaling import in_series
-from hevlib.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_force
+from hevlib.cycles import KernelCycle
+from hevlib.sim.control import PmsConfig, supervise
+from hevlib.sim.powertrain import conventional as conv
+from hevlib.sim.powertrain import hybrid as split
+from hevlib.sim.powertrain import layout as L  # O_*, T_* column indices (compile-time constants)
+from hevlib.sim.powertrain import thermal as th_
+from hevlib.sim.powertrain.battery import current_for_power, power_limits
+from hevlib.sim.powertrain.borrow import borrowed
+from hevlib.sim.powertrain.engine import EngineArrays, max_torque, rates
+from hevlib.sim.powertrain.lookup import cell, interp1_np
+from hevlib.sim.powertrain.machines import MachineArrays, torque_limit
+from hevlib.sim.powertrain.scaling import in_series
+from hevlib.sim.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_force
 
 LIMIT_TOL = 1e-9  # relative tolerance of the limit checks
 #: Flags handed to the kernels that are compiled on their own (not inlined) as typed booleans: numba types a
@@ -84,6 +85,27 @@ class DriveConfig(NamedTuple):
     j_mot: float
     j_gen: float
     off_trace_mps: float  # speed error above which a step counts as off the trace (speed_dev)
+
+
+class KernelVehicle(NamedTuple):
+    """One batch of vehicles as every kernel reads it (:meth:`hevlib.sim.vehicles.Vehicle.from_design`): the
+    argument list of :func:`drive_hybrid`, :func:`drive_conventional` and the performance tests, written once.
+
+    One type for both drivelines (the conventional car carries the library's machines, pack and controller
+    unread; the hybrid the gearbox), so each kernel compiles one signature."""
+
+    rows: np.ndarray  # (n, N_R) per-design rows, R_* columns
+    c: DriveConfig
+    th: np.ndarray  # fuzzy thresholds of the rule base (hevlib.sim.control.thresholds)
+    pc: PmsConfig
+    E: EngineArrays
+    M: MachineArrays
+    G: MachineArrays
+    B: BatteryArrays
+    ratios: np.ndarray  # conventional gearbox: overall ratio of each gear ...
+    upshift_kmh: np.ndarray  # ... and the upshift schedule
+    cd: conv.ConvDesign
+    X: th_.ThermalConfig
 
 
 #: Achieved speed below which the car counts as standing still, m/s (and the trace as asking it to move
@@ -371,29 +393,11 @@ def _limited_conv(v0, v_req, v_cap, f_cmd, ratio, sn, cs, dt, st, d, ch, E):
 
 
 @njit(cache=True)
-def _hybrid_one(
-    row,
-    c: DriveConfig,
-    th,
-    pc: PmsConfig,
-    E: EngineArrays,
-    M: MachineArrays,
-    G: MachineArrays,
-    B: BatteryArrays,
-    v_ref,
-    grade,
-    sin_g,
-    cos_g,
-    key_on,
-    X: th_.ThermalConfig,
-    t_init,
-    o,
-    tr,
-    record: bool,
-):
+def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, record: bool):
     # everything below reads the caller's arrays through views that are not reference-counted (borrow.py)
-    c, th, E, M, G, B, X, row, t_init, o, tr = borrowed((c, th, E, M, G, B, X, row, t_init, o, tr))
-    v_ref, grade, sin_g, cos_g, key_on = borrowed((v_ref, grade, sin_g, cos_g, key_on))
+    veh, cyc, t_init, o, tr = borrowed((veh, cyc, t_init, o, tr))
+    row, c, th, pc, E, M, G, B, X = veh.rows[i], veh.c, veh.th, veh.pc, veh.E, veh.M, veh.G, veh.B, veh.X
+    v_ref, grade, sin_g, cos_g, key_on = cyc
     d = split_design(row, c)
     ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c), c)
     n_bat = row[R_N_BAT]
@@ -545,56 +549,22 @@ def _hybrid_one(
         tr[0, L.T_T_CAT] = t_init[th_.N_MON]
 
 
-@njit(cache=True, parallel=True)
-def drive_hybrid(
-    rows,
-    c: DriveConfig,
-    th,
-    pc: PmsConfig,
-    E: EngineArrays,
-    M: MachineArrays,
-    G: MachineArrays,
-    B: BatteryArrays,
-    v_ref,
-    grade,
-    sin_g,
-    cos_g,
-    key_on,
-    X: th_.ThermalConfig,
-    t_init,
-    out,
-    traces,
-    rec_index,
-):
-    """Drive every design (rows of the design matrix, ``R_*`` columns) over the cycle; fill ``out``."""
-    for i in prange(rows.shape[0]):
+@njit(cache=True, nogil=True)
+def drive_hybrid(veh: KernelVehicle, cyc: KernelCycle, t_init, out, traces, rec_index, start: int, stop: int):
+    """Drive designs ``start .. stop - 1`` of ``veh`` (its rows) over ``cyc`` from the thermal start ``t_init``;
+    fill their rows of ``out`` (``O_*`` columns) and, where ``rec_index`` is >= 0, that trace of ``traces``.
+    Releases the GIL: :func:`hevlib.sim.simulator.in_parallel` runs chunks of a batch on threads."""
+    for i in range(start, stop):
         j = rec_index[i]
-        tr = traces[max(j, 0)]
-        _hybrid_one(rows[i], c, th, pc, E, M, G, B, v_ref, grade, sin_g, cos_g, key_on, X, t_init, out[i], tr, j >= 0)
+        _hybrid_one(veh, i, cyc, t_init, out[i], traces[max(j, 0)], j >= 0)
 
 
 @njit(cache=True)
-def _conventional_one(
-    row,
-    c: DriveConfig,
-    ratios,
-    upshift_kmh,
-    d: conv.ConvDesign,
-    E: EngineArrays,
-    v_ref,
-    grade,
-    sin_g,
-    cos_g,
-    key_on,
-    X: th_.ThermalConfig,
-    t_init,
-    o,
-    tr,
-    record: bool,
-):
+def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, record: bool):
     # the caller's arrays through views that are not reference-counted (borrow.py)
-    c, ratios, upshift_kmh, E, X, row, t_init, o, tr = borrowed((c, ratios, upshift_kmh, E, X, row, t_init, o, tr))
-    v_ref, grade, sin_g, cos_g, key_on = borrowed((v_ref, grade, sin_g, cos_g, key_on))
+    veh, cyc, t_init, o, tr = borrowed((veh, cyc, t_init, o, tr))
+    row, c, ratios, upshift_kmh, d, E, X = veh.rows[i], veh.c, veh.ratios, veh.upshift_kmh, veh.cd, veh.E, veh.X
+    v_ref, grade, sin_g, cos_g, key_on = cyc
     m = row[R_MASS]
     m_free = conventional_equivalent_mass_kg(m, 0.0, False, d.s_eng, c)  # clutch open
     m_prev = m_free
@@ -697,42 +667,9 @@ def _conventional_one(
         tr[0, L.T_T_CAT] = t_init[th_.N_MON]
 
 
-@njit(cache=True)
-def drive_conventional(
-    rows,
-    c: DriveConfig,
-    ratios,
-    upshift_kmh,
-    d: conv.ConvDesign,
-    E: EngineArrays,
-    v_ref,
-    grade,
-    sin_g,
-    cos_g,
-    key_on,
-    X: th_.ThermalConfig,
-    t_init,
-    out,
-    traces,
-    rec_index,
-):
-    for i in range(rows.shape[0]):
+@njit(cache=True, nogil=True)
+def drive_conventional(veh: KernelVehicle, cyc: KernelCycle, t_init, out, traces, rec_index, start: int, stop: int):
+    """As :func:`drive_hybrid` for the conventional car."""
+    for i in range(start, stop):
         j = rec_index[i]
-        _conventional_one(
-            rows[i],
-            c,
-            ratios,
-            upshift_kmh,
-            d,
-            E,
-            v_ref,
-            grade,
-            sin_g,
-            cos_g,
-            key_on,
-            X,
-            t_init,
-            out[i],
-            traces[max(j, 0)],
-            j >= 0,
-        )
+        _conventional_one(veh, i, cyc, t_init, out[i], traces[max(j, 0)], j >= 0)

@@ -40,8 +40,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from hevlib.powertrain import layout as L
-from hevlib.powertrain.lookup import bracket, interp1
+from hevlib.sim.powertrain import layout as L
+from hevlib.sim.powertrain.lookup import bracket, interp1
 
 SIGMA = 5.670374419e-8  # Stefan-Boltzmann, W/m^2/K^4
 KELVIN = 273.15
@@ -180,7 +180,7 @@ def finish(temp: np.ndarray, k: np.ndarray, duration_s: float, o: np.ndarray) ->
 @njit(cache=True, inline="always")
 def release(scratch: np.ndarray) -> None:
     """Mark the end of a borrowed scratch array's use: the kernels read :func:`start`'s arrays through views
-    that do not keep them alive (:mod:`hevlib.powertrain.borrow`), so the owner is used once more here,
+    that do not keep them alive (:mod:`hevlib.sim.powertrain.borrow`), so the owner is used once more here,
     after the last step, and freed after this call."""
     scratch[0] = 0.0
 
@@ -344,7 +344,7 @@ def thermal_step(
 
     ``q_waste_w``: the engine's waste heat (fuel power - shaft power, the engine loss of the energy
     balance) of the step, ``fuel_g_s`` its fuel rate (0: no exhaust flow), ``w_e`` its speed. Accumulates the
-    heat terms ``O_Q_*`` of :mod:`hevlib.powertrain.layout` in ``o``.
+    heat terms ``O_Q_*`` of :mod:`hevlib.sim.powertrain.layout` in ``o``.
     """
     amb = t.amb_c
     if fuel_g_s == 0.0 and q_waste_w == 0.0 and eo_hc + eo_co + eo_nox == 0.0 and at_ambient(temp, amb):

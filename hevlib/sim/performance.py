@@ -11,14 +11,14 @@ above the speed the component speed limits allow through ``i0`` and the gear set
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
-from hevlib.drive import (
+from hevlib.sim.drive import (
     NO_ENVELOPE,
     ON,
     R_MASS,
     R_N_BAT,
-    DriveConfig,
+    KernelVehicle,
     _limited_conv,
     _limited_split,
     chassis,
@@ -28,12 +28,10 @@ from hevlib.drive import (
     split_equivalent_mass_kg,
     split_speed_limit,
 )
-from hevlib.powertrain import conventional as conv
-from hevlib.powertrain import hybrid as split
-from hevlib.powertrain.borrow import borrowed
-from hevlib.powertrain.engine import EngineArrays
-from hevlib.powertrain.machines import MachineArrays
-from hevlib.powertrain.vehicle import adhesion_limit, road_total
+from hevlib.sim.powertrain import conventional as conv
+from hevlib.sim.powertrain import hybrid as split
+from hevlib.sim.powertrain.borrow import borrowed
+from hevlib.sim.powertrain.vehicle import adhesion_limit, road_total
 
 V_100 = 100.0 / 3.6
 BIG_FORCE = 1e7
@@ -132,23 +130,13 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
     return f_max, t100, lo * 3.6
 
 
-@njit(cache=True, parallel=True)
-def performance_batch(
-    kind: int,
-    rows: np.ndarray,
-    c: DriveConfig,
-    ratios: np.ndarray,
-    cd: conv.ConvDesign,
-    E: EngineArrays,
-    M: MachineArrays,
-    G: MachineArrays,
-    B,
-    dt: float,
-    t_max: float,
-) -> np.ndarray:
-    """(n, 3) array of f_max (m/s^2), t_0_100_s, v_max (km/h) for every design row."""
-    out = np.empty((rows.shape[0], 3))
-    for i in prange(rows.shape[0]):
-        f_max, t100, v_max = _launch_and_top(kind, rows[i], c, ratios, cd, E, M, G, B, dt, t_max)
+@njit(cache=True, nogil=True)
+def performance_batch(kind: int, veh: KernelVehicle, dt: float, t_max: float, out: np.ndarray, start: int, stop: int):
+    """Rows ``start .. stop - 1`` of ``out`` (n, 3): f_max (m/s^2), t_0_100_s, v_max (km/h) of those designs of
+    ``veh`` (kind 0: power-split hybrid, 1: conventional), launched at ``dt`` for at most ``t_max`` seconds.
+    Releases the GIL (:func:`hevlib.sim.simulator.in_parallel`)."""
+    for i in range(start, stop):
+        f_max, t100, v_max = _launch_and_top(
+            kind, veh.rows[i], veh.c, veh.ratios, veh.cd, veh.E, veh.M, veh.G, veh.B, dt, t_max
+        )
         out[i, 0], out[i, 1], out[i, 2] = f_max, t100, v_max
-    return out

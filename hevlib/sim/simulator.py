@@ -1,0 +1,418 @@
+"""The vehicle simulator's Python face: designs in, responses (SPEC section 5) out.
+
+Simulation is a separate step from the data it runs on (FASTSim 3's shape): a :class:`~hevlib.sim.vehicles.Vehicle`
+(one typed kernel record per batch, :meth:`~hevlib.sim.vehicles.Vehicle.from_design`) and a cycle
+(:meth:`hevlib.cycles.Cycle.to_kernel`) go into the pure :func:`simulate`, which runs the numba kernels
+(:mod:`hevlib.sim.drive`, :mod:`hevlib.sim.performance`) and returns the per-design accumulators;
+:func:`responses` turns those into the eleven objectives and the extra responses. :class:`Simulator` keeps the
+packed library and an executor and runs batches of designs through both, in parallel.
+
+Full traces are recorded only on request (``record``), so memory per design is a few hundred bytes whatever the
+cycle length.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numba
+import numpy as np
+import pandas as pd
+
+from hevlib import MODEL_VERSION
+from hevlib.components import ComponentLibrary
+from hevlib.cycles import Cycle
+from hevlib.design import BOOL_RESPONSES, DESIGN_VARS, OBJECTIVES, RESPONSES
+from hevlib.params import Params
+from hevlib.sim.drive import drive_conventional, drive_hybrid
+from hevlib.sim.executor import LocalExecutor, executor_for
+from hevlib.sim.performance import performance_batch
+from hevlib.sim.powertrain.layout import (
+    BALANCE_SINKS,
+    N_O,
+    N_T,
+    OUT_NAMES,
+    THERMAL_SINKS,
+    THERMAL_SOURCES,
+    TRACE_NAMES,
+)
+from hevlib.sim.powertrain.thermal import cold_factors
+from hevlib.sim.vehicles import LIGHT_OFF_HC_CONVERSION, VEHICLES, KernelLibrary, Kind, Vehicle
+
+#: Designs that drive less than this share of the cycle get their per-km figures on this distance
+#: (they are flagged ``cycle_met = False`` and carry a large ``e_l``), so no response is infinite.
+MIN_DISTANCE_SHARE = 0.01
+#: Unmet accessory energy (kWh) above which a run does not count as having met the cycle (round-off only).
+UNMET_TOL_KWH = 1e-9
+
+
+@dataclass(frozen=True)
+class RunOutput:
+    """Raw kernel output of one batch: accumulators (n, N_O), performance (n, 3), masses, traces."""
+
+    out: np.ndarray
+    perf: np.ndarray
+    mass_kg: np.ndarray
+    traces: np.ndarray | None
+
+    def frame(self) -> pd.DataFrame:
+        return pd.DataFrame(self.out, columns=list(OUT_NAMES))
+
+
+def simulate(vehicle: Vehicle, cycle: Cycle, *, record: bool = False, performance: bool = True) -> RunOutput:
+    """Drive every vehicle of the batch over ``cycle`` from the thermal start the params give that cycle
+    (``sim.start``) and run the flat-road performance tests (NaN unless ``performance``); traces of every
+    vehicle if ``record``. Pure: the same inputs give the same output, bit for bit."""
+    veh = vehicle.with_step(cycle.dt_s)
+    n = veh.n
+    out = np.zeros((n, N_O))
+    traces = np.zeros((n if record else 1, cycle.n_steps, N_T))
+    rec = np.arange(n) if record else np.full(n, -1)
+    t_init = veh.library.start_temperatures(cycle.name, veh.kind)
+    kernel = drive_conventional if veh.kind == "conventional" else drive_hybrid
+    in_parallel(kernel, n, veh.kernel, cycle.to_kernel(), t_init, out, traces, rec)
+    perf = performance_tests(vehicle) if performance else np.full((n, 3), np.nan)
+    return RunOutput(out, perf, vehicle.mass_kg, traces if record else None)
+
+
+def performance_tests(vehicle: Vehicle) -> np.ndarray:
+    """(n, 3): highest launch acceleration (m/s^2), 0-100 km/h time (s) and top speed (km/h) on a flat road."""
+    sim = vehicle.library.params.sim
+    kind = 1 if vehicle.kind == "conventional" else 0
+    out = np.empty((vehicle.n, 3))
+    in_parallel(performance_batch, vehicle.n, kind, vehicle.kernel, sim.perf_dt_s, sim.perf_max_time_s, out)
+    return out
+
+
+#: Chunks per thread of a batch: designs differ in cost (force-limited steps), so threads take chunks as they
+#: finish rather than one equal share each.
+CHUNKS_PER_THREAD = 4
+_POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}  # by (process, threads): a forked child makes its own
+
+
+def in_parallel(kernel: Callable, n: int, *args) -> None:
+    """``kernel(*args, start, stop)`` over chunks of ``range(n)`` on as many threads as numba's thread count
+    (``NUMBA_NUM_THREADS``); the kernels release the GIL and write disjoint rows, so the result does not depend
+    on the split."""
+    threads = numba.get_num_threads()
+    if threads <= 1 or n <= 1:
+        kernel(*args, 0, n)
+        return
+    key = (os.getpid(), threads)
+    if key not in _POOLS:
+        _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix="hev-sim")
+    edges = np.linspace(0, n, min(n, CHUNKS_PER_THREAD * threads) + 1).astype(int)
+    jobs = [_POOLS[key].submit(kernel, *args, int(a), int(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+    for job in jobs:
+        job.result()
+
+
+def responses(res: RunOutput, cycle: Cycle, library: KernelLibrary) -> pd.DataFrame:
+    """The eleven objectives (SPEC section 5) and the extra responses of a run (:func:`simulate`) on ``cycle``."""
+    o = res.frame()
+    sim = library.params.sim
+    lib = library.lib
+    lhv = lib.engine_hybrid.lhv_j_per_g
+    rho_fuel = lib.engine_hybrid.fuel_density_g_per_l
+    dist_km = np.maximum(o["dist_m"].to_numpy(), MIN_DISTANCE_SHARE * cycle.distance_m) / 1e3
+    fuel_l = o["fuel_g"].to_numpy() / rho_fuel
+    e_fuel, e_batt = o["e_fuel_j"].to_numpy(), o["e_batt_j"].to_numpy()
+    # SOC correction (SAE J1711 spirit): net battery energy as the fuel the engine would have burnt
+    # to put it back through the generator, at this run's own mean engine and generator efficiency.
+    eta_eng = np.where(
+        e_fuel > 0,
+        o["e_eng_shaft_j"].to_numpy() / np.where(e_fuel > 0, e_fuel, 1.0),
+        lib.engine_hybrid.max_efficiency(),
+    )
+    gen_in = o["e_gen_mech_in_j"].to_numpy()
+    eta_gen = np.where(gen_in > 0, o["e_gen_elec_out_j"].to_numpy() / np.where(gen_in > 0, gen_in, 1.0), 0.9)
+    fuel_equiv_l = e_batt / (np.clip(eta_eng * eta_gen, 0.05, 1.0) * lhv) / rho_fuel
+    acc_req = o["acc_req_sum_mps2"].to_numpy()
+    in_energy = e_fuel + e_batt
+    stalled = o["stuck_max_s"].to_numpy() > sim.stall_time_s
+    src = "_tailpipe" if sim.emissions == "tailpipe" else ""  # the hc, co, nox objectives
+    unmet_kwh = o["e_acc_unmet_j"].to_numpy() / 3.6e6
+    r = pd.DataFrame(
+        {
+            "m_veh": res.mass_kg,
+            "fc": 100.0 * fuel_l / dist_km,
+            "accel_dev": 100.0 * o["acc_short_sum_mps2"].to_numpy() / np.where(acc_req > 0, acc_req, 1.0),
+            **{k: o[f"{k}{src}_g"].to_numpy() / dist_km for k in ("hc", "co", "nox")},
+            "e_l": np.maximum(o["dist_ref_m"].to_numpy() - o["dist_m"].to_numpy(), 0.0) / 1e3,
+            # share of the cycle's duration off the trace by more than the tolerance (ADVISOR's 2 mph)
+            "speed_dev": o["off_trace_s"].to_numpy() / cycle.duration_s,
+            "diff_soc": sim.soc_init - o["soc_end"].to_numpy(),
+            "v_max": res.perf[:, 2],
+            "f_max": res.perf[:, 0],
+            "fc_soc_corrected": 100.0 * (fuel_l + fuel_equiv_l) / dist_km,
+            # no energy in (never started, never drew on the battery): no tractive energy out either
+            "eta_drivetrain": np.where(
+                in_energy > 0, o["e_traction_j"].to_numpy() / np.where(in_energy > 0, in_energy, 1.0), 0.0
+            ),
+            "t_0_100_s": res.perf[:, 1],
+            "cycle_met": (
+                (o["max_speed_err_mps"].to_numpy() * 3.6 <= sim.cycle_met_tolerance_kmh)
+                & ~stalled
+                & (unmet_kwh <= UNMET_TOL_KWH)
+            ),
+            "speed_err_mean_kmh": 3.6 * o["speed_err_sum_mps"].to_numpy() / np.maximum(o["n_steps"].to_numpy(), 1.0),
+            "stalled": stalled,
+            "accessory_unmet_kwh": unmet_kwh,
+            **{f"{k}_engine_out": o[f"{k}_g"].to_numpy() / dist_km for k in ("hc", "co", "nox")},
+            "t_cat_light_off_s": o["t_cat_light_off_s"].to_numpy(),
+        }
+    )
+    failed = stalled | (o["dist_m"].to_numpy() < sim.min_distance_share * cycle.distance_m)
+    if failed.any():
+        _report_failure(r, failed, cycle, o["dist_ref_m"].to_numpy(), library)
+    bad = r[list(OBJECTIVES) + ["fc_soc_corrected", "eta_drivetrain"]].isna().any(axis=1)
+    if bad.any():
+        i = int(np.argmax(bad.to_numpy()))
+        col = r.columns[r.iloc[i].isna()][0]
+        raise FloatingPointError(f"simulation produced NaN for {col} (design row {i}, cycle {cycle.name})")
+    return r
+
+
+def failure_ceilings(cycle: Cycle, library: KernelLibrary) -> dict[str, float]:
+    """Per-km ceilings reported for a design that stalled or drove less than ``sim.min_distance_share``
+    of ``cycle``.
+
+    Each is what the largest engine of the study (the design space's top ``p_eng_kw`` or the
+    conventional car's, whichever burns more) would burn or emit at its map's highest rate for the
+    whole cycle, over ``min_distance_share`` of the cycle's distance. A working design (one that drove
+    at least that share) can never exceed it, so a failed design never scores better than any
+    working one; all failed designs share it (they failed; their own per-km figures mean nothing).
+    """
+    lib, sim = library.lib, library.params.sim
+    j = DESIGN_VARS.index("p_eng_kw")
+    engines = (
+        (lib.engine_hybrid, library.space.upper[j] / lib.engine_hybrid.peak_power_kw),
+        (
+            lib.engine_conventional,
+            library.params.baseline.conventional.p_eng_kw / lib.engine_conventional.peak_power_kw,
+        ),
+    )
+    km = sim.min_distance_share * cycle.distance_m / 1e3
+    # a cold engine burns and emits more: ADVISOR's cold factors at their largest (lambda = 1, a block at
+    # the maps' own reference temperature or colder)
+    th = library.thermal["hybrid"]
+    cold = dict(zip(("fc", "hc", "co", "nox"), cold_factors(th.t_map_c, th), strict=True))
+    out = {}
+    for key, rate in (("fc", "fuel_g_s"), ("hc", "hc_g_s"), ("co", "co_g_s"), ("nox", "nox_g_s")):
+        grams = max(float(np.max(getattr(e, rate))) * s for e, s in engines) * cycle.duration_s * cold[key]
+        out[key] = grams / km if key != "fc" else 100.0 * grams / lib.engine_hybrid.fuel_density_g_per_l / km
+    return out
+
+
+def _report_failure(
+    r: pd.DataFrame, failed: np.ndarray, cycle: Cycle, dist_ref_m: np.ndarray, library: KernelLibrary
+) -> None:
+    """Give the designs of ``failed`` (stalled, or drove less than ``sim.min_distance_share`` of the
+    cycle) the worst value every cycle objective can take, in place, so that a design that failed never
+    scores better than one that worked: per-km figures the failure ceiling (:func:`failure_ceilings`),
+    ``diff_soc`` the whole SOC window below the start, ``speed_dev`` 1 (off the trace throughout),
+    ``e_l`` the cycle's distance, ``accel_dev`` 100 %, ``eta_drivetrain`` 0. What the design really did
+    stays in ``speed_err_mean_kmh``, ``accessory_unmet_kwh`` and the traces; ``m_veh``, ``v_max``,
+    ``f_max`` and ``t_0_100_s`` are properties of the design (flat-road tests), not of the cycle run.
+    """
+    sim = library.params.sim
+    ceil = failure_ceilings(cycle, library)
+    for key in ("fc", "hc", "co", "nox", "hc_engine_out", "co_engine_out", "nox_engine_out"):
+        r.loc[failed, key] = np.maximum(r.loc[failed, key].to_numpy(), ceil[key.removesuffix("_engine_out")])
+    r.loc[failed, "fc_soc_corrected"] = np.maximum(r.loc[failed, "fc_soc_corrected"].to_numpy(), ceil["fc"])
+    r.loc[failed, "diff_soc"] = np.maximum(r.loc[failed, "diff_soc"].to_numpy(), sim.soc_init - sim.soc_min)
+    r.loc[failed, "speed_dev"] = 1.0
+    r.loc[failed, "e_l"] = np.maximum(r.loc[failed, "e_l"].to_numpy(), dist_ref_m[failed] / 1e3)
+    r.loc[failed, "accel_dev"] = 100.0
+    r.loc[failed, "eta_drivetrain"] = 0.0
+
+
+class Simulator:
+    """Simulate batches of designs (and the two baselines) on drive cycles: the packed library
+    (:class:`~hevlib.sim.vehicles.KernelLibrary`), :func:`simulate` and :func:`responses`, and the executor the
+    batches run on (``sim.executor``)."""
+
+    def __init__(self, lib: ComponentLibrary, params: Params):
+        self.lib, self.params = lib, params
+        self.library = KernelLibrary.build(lib, params)
+        self.space = self.library.space
+        self.chassis_kg = self.library.chassis_kg
+        #: where :meth:`run` sends its batches (``sim.executor``); close with :meth:`close` or ``with``
+        self.executor = executor_for(params.sim)
+
+    def close(self) -> None:
+        """Close the executor (a Dask ``LocalCluster`` it started)."""
+        self.executor.close()
+
+    def __enter__(self) -> Simulator:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __getstate__(self) -> dict:
+        # what a Dask worker receives: everything but the executor (the workers simulate locally)
+        state = dict(self.__dict__)
+        state["executor"] = LocalExecutor()
+        return state
+
+    @classmethod
+    def from_params(cls, params: Params, components_dir: str | Path = "data/components") -> Simulator:
+        return cls(ComponentLibrary.load(components_dir), params)
+
+    # ----------------------------------------------------------------------------------- vehicles
+    def vehicle(self, X: np.ndarray | pd.DataFrame | None, kind: Kind = "hybrid") -> Vehicle:
+        """The kernel record of designs ``X`` (``hybrid``: named columns, or an array in ``DESIGN_VARS`` order)
+        or of a baseline (``prius``, ``conventional``: ``X`` ignored)."""
+        if kind == "hybrid":
+            return Vehicle.from_design(self.library, X if X is not None else np.empty((0, len(DESIGN_VARS))))
+        return Vehicle.baseline(self.library, kind)
+
+    def mass_kg(self, X: np.ndarray) -> np.ndarray:
+        """Exact test mass of hybrid conversions (SPEC section 4 mass model), kg."""
+        return self.library.mass_kg(X)
+
+    def design_of(self, vehicle: Kind) -> dict[str, float]:
+        """The seven design variables of a baseline (NaN for the conventional car's hybrid-only ones)."""
+        if vehicle not in ("prius", "conventional"):
+            raise ValueError(f"vehicle: {vehicle!r} has no fixed design")
+        return {k: float(v) for k, v in Vehicle.baseline(self.library, vehicle).design.iloc[0].items()}
+
+    def start_state(self, cycle: Cycle) -> str:
+        """``cold`` or ``hot``: the thermal start of ``cycle`` (params ``sim.start``; cold if not listed)."""
+        return self.library.start_state(cycle.name)
+
+    def start_temperatures(self, cycle: Cycle, vehicle: Kind) -> np.ndarray:
+        """The nine thermal nodes' start temperatures of ``vehicle`` on ``cycle``, degC."""
+        return self.library.start_temperatures(cycle.name, vehicle)
+
+    def light_off_temperature_c(self) -> float:
+        """Monolith temperature (degC) at which the catalyst first converts ``LIGHT_OFF_HC_CONVERSION`` of
+        the HC (linear in the ``EX_SI`` table, as the kernels read it)."""
+        cat = self.lib.catalyst
+        t, eff = cat.temperature_c, cat.conversion_hc
+        i = int(np.argmax(eff >= LIGHT_OFF_HC_CONVERSION))
+        return float(t[i - 1] + (LIGHT_OFF_HC_CONVERSION - eff[i - 1]) / (eff[i] - eff[i - 1]) * (t[i] - t[i - 1]))
+
+    # ----------------------------------------------------------------------------------- running
+    def run_raw(
+        self,
+        X: np.ndarray | None,
+        cycle: Cycle,
+        vehicle: Kind = "hybrid",
+        *,
+        record: bool = False,
+        performance: bool = True,
+    ) -> RunOutput:
+        """Kernel outputs for one batch (all designs of ``X``; traces for all if ``record``)."""
+        return simulate(self.vehicle(X, vehicle), cycle, record=record, performance=performance)
+
+    def run(
+        self,
+        X: np.ndarray | None,
+        cycle: Cycle,
+        vehicle: Kind = "hybrid",
+        *,
+        batch_size: int = 1000,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> pd.DataFrame:
+        """Responses (``hevlib.design.RESPONSES`` columns), one row per design of ``X`` in order.
+
+        ``X``: (n, 7) in ``DESIGN_VARS`` order, checked against the design space (ignored for the two
+        baselines, which give one row). ``progress(n_done, n_total)`` is called after each batch.
+        """
+        if vehicle != "hybrid":
+            frames = [self.responses(self.run_raw(None, cycle, vehicle), cycle)]
+        else:
+            X = self.space.check(X, what="designs")
+            step = max(int(batch_size), 1)
+            batches = [X[start : start + step] for start in range(0, X.shape[0], step)]
+            frames = self.executor.map(
+                _batch_responses, self, [(b, cycle) for b in batches], [len(b) for b in batches], progress
+            )
+        if not frames:
+            return pd.DataFrame({k: pd.Series(dtype=bool if k in BOOL_RESPONSES else float) for k in RESPONSES})
+        return pd.concat(frames, ignore_index=True)
+
+    def trace(self, X: np.ndarray | None, cycle: Cycle, vehicle: Kind = "hybrid") -> pd.DataFrame:
+        """Per-step traces (``TRACE_NAMES`` plus ``time_s``, ``design``) of a few designs."""
+        res = self.run_raw(X, cycle, vehicle, record=True, performance=False)
+        frames = []
+        for i, tr in enumerate(res.traces):
+            df = pd.DataFrame(tr, columns=list(TRACE_NAMES))
+            df.insert(0, "time_s", cycle.time_s)
+            df.insert(0, "design", i)
+            frames.append(df)
+        return pd.concat(frames, ignore_index=True)
+
+    def responses(self, res: RunOutput, cycle: Cycle) -> pd.DataFrame:
+        """:func:`responses` of a run of this simulator."""
+        return responses(res, cycle, self.library)
+
+
+def _batch_responses(sim: Simulator, item: tuple[np.ndarray, Cycle]) -> pd.DataFrame:
+    """One batch's responses (an executor's task)."""
+    X, cycle = item
+    return sim.responses(sim.run_raw(X, cycle, "hybrid"), cycle)
+
+
+def warm_up(params: Params, paper_dir: str | Path = "data/raw/paper") -> None:
+    """Compile (and cache on disk) every numba kernel the stages call, on a two-step cycle.
+
+    numba caches each kernel per argument types; the stages always pass the same types (float64
+    C-contiguous arrays), so one small run per vehicle kind fills the cache the pipeline reads.
+    """
+    from hevlib.sizing import study_library
+
+    sim = Simulator(study_library(params.baseline, paper_dir), params)
+    cycle = Cycle("warm-up", np.arange(3.0), np.array([0.0, 1.0, 0.0]), np.zeros(3))
+    for vehicle in ("prius", "conventional"):  # the hybrid kernel (any design) and the conventional one
+        sim.run_raw(None, cycle, vehicle)
+
+
+def energy_balance(res: RunOutput) -> pd.DataFrame:
+    """Sources, sinks and the residual of the energy balance per design.
+
+    ``residual_share`` and ``mismatch_share`` are relative to the energy put in, fuel plus the
+    magnitude of the net battery energy (the fuel energy whenever the engine runs; a design whose
+    engine never starts is judged on its battery energy).
+    """
+    o = res.frame()
+    sources = o["e_fuel_j"] + o["e_batt_j"]
+    sinks = o[list(BALANCE_SINKS)].sum(axis=1)
+    scale = (o["e_fuel_j"] + o["e_batt_j"].abs()).clip(lower=1.0)
+    out = o[["e_fuel_j", "e_batt_j", *BALANCE_SINKS]].copy()
+    out["residual_j"] = sources - sinks
+    out["residual_share"] = out["residual_j"].abs() / scale
+    out["mismatch_share"] = o["e_mismatch_j"].abs() / scale
+    # heat balance of the thermal nodes: stored heat change = heat in (combustion, exhaust, reaction) - heat out
+    stored = o["u_thermal_end_j"] - o["u_thermal_start_j"]
+    heat_in = o[list(THERMAL_SOURCES)].sum(axis=1)
+    out["thermal_residual_j"] = stored - heat_in + o[list(THERMAL_SINKS)].sum(axis=1)
+    out["thermal_residual_share"] = out["thermal_residual_j"].abs() / heat_in.clip(lower=1.0)
+    return out
+
+
+def with_inputs(X: np.ndarray, responses: pd.DataFrame) -> pd.DataFrame:
+    """The seven design-variable columns followed by the responses."""
+    return pd.concat([pd.DataFrame(np.asarray(X, float), columns=list(DESIGN_VARS)), responses], axis=1)
+
+
+__all__ = [
+    "Simulator",
+    "RunOutput",
+    "simulate",
+    "performance_tests",
+    "responses",
+    "failure_ceilings",
+    "energy_balance",
+    "with_inputs",
+    "Vehicle",
+    "KernelLibrary",
+    "VEHICLES",
+    "MODEL_VERSION",
+]

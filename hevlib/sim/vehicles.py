@@ -1,0 +1,411 @@
+"""Vehicles as the kernels read them: the component library and the params packed once into arrays
+(:class:`KernelLibrary`), and one typed record per batch of designs (:class:`Vehicle`, its
+:class:`~hevlib.sim.drive.KernelVehicle`) built from named design columns.
+
+Three kinds of vehicle:
+
+- ``hybrid``: conversion designs (the seven variables) on the conventional car's chassis;
+- ``prius``: the stock Prius on its own body, wheels and test mass;
+- ``conventional``: the 70 kW five-speed baseline.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+
+from hevlib.components import Catalyst, ComponentLibrary, EngineMap, EngineThermal, MachineMap, best_efficiency_line
+from hevlib.design import DESIGN_VARS, DesignSpace, design_vector
+from hevlib.params import Params
+from hevlib.sim.control import PmsConfig, thresholds
+from hevlib.sim.drive import (
+    N_R,
+    R_I0,
+    R_MASS,
+    R_N_BAT,
+    R_N_R,
+    R_N_S,
+    R_S_ENG,
+    R_S_GEN,
+    R_S_MOT,
+    BatteryArrays,
+    DriveConfig,
+    KernelVehicle,
+)
+from hevlib.sim.powertrain.conventional import ConvDesign
+from hevlib.sim.powertrain.engine import EngineArrays
+from hevlib.sim.powertrain.lookup import resample, uniform_axis
+from hevlib.sim.powertrain.machines import MachineArrays
+from hevlib.sim.powertrain.thermal import ThermalConfig, start_temperatures
+from hevlib.sizing import conventional_chassis_kg, hybrid_masses
+
+Kind = Literal["hybrid", "prius", "conventional"]
+VEHICLES: tuple[str, ...] = ("hybrid", "prius", "conventional")
+#: HC conversion that marks the catalyst's light-off (``t_cat_light_off_s``).
+LIGHT_OFF_HC_CONVERSION = 0.5
+
+
+def engine_arrays(engine: EngineMap) -> EngineArrays:
+    """The engine's tables on uniform grids (exact where the grid holds every breakpoint) and its
+    best-efficiency line, for the kernels."""
+    p, w, t = best_efficiency_line(engine)
+    if p[0] != 0.0 or not np.allclose(np.diff(p), p[1]):
+        raise ValueError(f"engine {engine.name}: best-efficiency line must be on a uniform power grid from 0")
+    t = np.maximum.accumulate(t)
+    t[1:] = np.maximum(t[1:], t[:-1] + 1e-9)  # strictly increasing for the inverse lookup
+    if engine.torque_nm[0] != 0.0:
+        raise ValueError(f"engine {engine.name}: torque axis must start at 0 N m")
+    gw, gt = uniform_axis(engine.speed_rad_s), uniform_axis(engine.torque_nm)
+    maps = [
+        resample(engine.speed_rad_s, engine.torque_nm, m, gw, gt)
+        for m in (engine.fuel_g_s, engine.hc_g_s, engine.co_g_s, engine.nox_g_s)
+    ]
+    f = np.ascontiguousarray
+    return EngineArrays(
+        float(gw[0]),
+        float(gw[1] - gw[0]),
+        float(gt[1]),
+        f(resample(engine.speed_rad_s, None, engine.max_torque_nm, gw)),
+        *(f(m) for m in maps),
+        f(p, float),
+        f(w, float),
+        f(t, float),
+        f(resample(engine.speed_rad_s, None, engine.closed_throttle_torque_nm, gw)),
+    )
+
+
+def thermal_config(
+    engine: EngineMap, th: EngineThermal, cat: Catalyst, glider_kg: float, amb_c: float, cold_correction: bool
+) -> ThermalConfig:
+    """The engine's and the catalyst's thermal data as the kernels read them (ADVISOR's rules)."""
+    return ThermalConfig(
+        amb_c=float(amb_c),
+        p_base_kw=engine.peak_power_kw,
+        m_base_kg=th.base_engine_mass_kg,
+        m_acc_kg=th.accessories_mass_kg,
+        m_hood_kg=0.1 * glider_kg,
+        cp_eng=th.specific_heat_j_per_kg_k,
+        cp_hood=th.hood_specific_heat_j_per_kg_k,
+        a_ext_m2=th.exterior_area_m2,
+        a_hood_m2=th.hood_area_m2,
+        eps_eng=th.emissivity,
+        eps_hood=th.hood_emissivity,
+        g_c2i=th.cyl_to_block_w_per_k,
+        g_i2x=th.block_to_exterior_w_per_k,
+        g_h2x=th.exterior_to_hood_w_per_k,
+        t_stat_c=th.thermostat_c,
+        ex_frac_lo=th.exhaust_share_min_speed,
+        ex_frac_hi=th.exhaust_share_max_speed,
+        w_lo=engine.min_speed_rad_s,
+        w_hi=engine.max_speed_rad_s,
+        afr=th.air_fuel_ratio,
+        cp_gas=cat.gas_cp_j_per_g_k,
+        t_map_c=th.map_reference_c,
+        ex_kg_per_kw=cat.exhaust_kg_per_kw,
+        m_mon_share=cat.monolith_share,
+        m_shell_share=cat.shell_share,
+        m_pipe_share=cat.pipe_share,
+        m_shield_share=cat.shield_share,
+        m_man_share=cat.manifold_share,
+        cp_mon=cat.monolith_cp_j_per_kg_k,
+        cp_steel=cat.steel_cp_j_per_kg_k,
+        a_mon_coef=cat.monolith_area_coef_m2,
+        a_mon_exp=cat.monolith_area_exp,
+        a_man_m2_per_kw=cat.manifold_area_m2_per_kw,
+        eps_m2p=cat.emissivity_monolith_pipe,
+        eps_i2x=cat.emissivity_shell_shield,
+        eps_pipe=cat.emissivity_pipe,
+        eps_shield=cat.emissivity_shield,
+        eps_man=cat.emissivity_manifold,
+        g_shell2shield=cat.shell_shield_w_per_k,
+        g_shell2pipe=cat.shell_pipe_w_per_k,
+        g_pipe2shield=cat.pipe_shield_w_per_k,
+        m2i_t_c=np.ascontiguousarray(cat.monolith_shell_temperature_c, float),
+        m2i_g=np.ascontiguousarray(cat.monolith_shell_w_per_k, float),
+        conv_t_c=np.ascontiguousarray(cat.temperature_c, float),
+        conv_hc=np.ascontiguousarray(cat.conversion_hc, float),
+        conv_co=np.ascontiguousarray(cat.conversion_co, float),
+        conv_nox=np.ascontiguousarray(cat.conversion_nox, float),
+        lim_hc=cat.breakthrough_hc_g_s,
+        lim_co=cat.breakthrough_co_g_s,
+        lim_nox=cat.breakthrough_nox_g_s,
+        light_off_eff=LIGHT_OFF_HC_CONVERSION,
+        fuel_max_g_s=float(np.max(engine.fuel_g_s)),
+        cold_correction=bool(cold_correction),
+    )
+
+
+def machine_arrays(machine: MachineMap) -> MachineArrays:
+    """Efficiency map and torque limit on uniform grids from 0 (the machine maps' axes start at 0)."""
+    if machine.speed_rad_s[0] != 0.0 or machine.torque_nm[0] != 0.0:
+        raise ValueError(f"machine {machine.name}: speed and torque axes must start at 0")
+    gw, gt = uniform_axis(machine.speed_rad_s), uniform_axis(machine.torque_nm)
+    f = np.ascontiguousarray
+    return MachineArrays(
+        float(gw[1]),
+        float(gt[1]),
+        f(resample(machine.speed_rad_s, machine.torque_nm, machine.efficiency, gw, gt)),
+        f(resample(machine.speed_rad_s, None, machine.max_torque_nm, gw)),
+    )
+
+
+def battery_arrays(module) -> BatteryArrays:
+    if module.soc[0] != 0.0:
+        raise ValueError(f"battery {module.name}: SOC axis must start at 0")
+    g = uniform_axis(module.soc)
+    return BatteryArrays(
+        float(g[1]),
+        *(
+            np.ascontiguousarray(resample(module.soc, None, a, g))
+            for a in (module.ocv_v, module.r_dis_ohm, module.r_chg_ohm)
+        ),
+    )
+
+
+def drive_config(lib: ComponentLibrary, params: Params, body, wheel, p_acc_w: float, engine: EngineMap) -> DriveConfig:
+    """The scalars every design of a batch shares: chassis, limits, pack, controller (one-second step)."""
+    sim = params.sim
+    ps, bat = lib.power_split, lib.battery
+    return DriveConfig(
+        dt=1.0,
+        mu=sim.adhesion_coefficient,
+        rho=body.air_density_kg_m3,
+        g=body.gravity_m_s2,
+        cda=body.drag_coefficient * body.frontal_area_m2,
+        crr=wheel.rolling_resistance,
+        r=wheel.radius_m,
+        axle0_nm=wheel.axle_drag_nm_at_0kg,
+        axle_per_kg_nm=wheel.axle_drag_nm_per_kg,
+        h_over_l=body.cg_height_m / body.wheelbase_m,
+        f_front=body.front_weight_fraction,
+        soc_init=sim.soc_init,
+        soc_min=sim.soc_min,
+        soc_max=sim.soc_max,
+        eta_pg=sim.planetary_efficiency,
+        eta_fd=sim.final_drive_efficiency,
+        i_max_a=sim.pack_current_max_a,
+        brake_v_mps=np.ascontiguousarray(wheel.brake_speed_mps, float),
+        brake_share=np.ascontiguousarray(wheel.brake_driveline_share, float),
+        p_acc_w=float(p_acc_w),
+        lhv_j_per_g=lib.engine_hybrid.lhv_j_per_g,
+        w_e_min=ps.engine_min_on_speed_rad_s,
+        w_e_max=min(ps.engine_max_speed_rad_s, lib.engine_hybrid.max_speed_rad_s),
+        w_m_max=min(ps.motor_max_speed_rad_s, lib.motor.max_speed_rad_s),
+        w_g_max=min(ps.generator_max_speed_rad_s, lib.generator.max_speed_rad_s),
+        cap_as=bat.capacity_ah * 3600.0,
+        eta_c=bat.coulombic_efficiency,
+        v_min_mod=bat.v_min,
+        v_max_mod=bat.v_max,
+        w_idle=lib.conventional_idle_rad_s,
+        w_launch=lib.conventional_launch_rad_s,
+        j_wheel=wheel.inertia_kg_m2,
+        j_eng=engine.inertia_kg_m2,
+        j_mot=lib.motor.inertia_kg_m2,
+        j_gen=lib.generator.inertia_kg_m2,
+        off_trace_mps=sim.cycle_met_tolerance_kmh / 3.6,
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class KernelLibrary:
+    """The component library and the params as the kernels read them, packed once (:meth:`build`): engine,
+    machine and pack tables on uniform grids, each vehicle kind's drive and thermal settings, the controller,
+    the conventional car's gearbox."""
+
+    lib: ComponentLibrary
+    params: Params
+    space: DesignSpace
+    chassis_kg: float  #: the conventional car less its powertrain: the chassis every conversion keeps
+    engines: Mapping[str, EngineArrays]  #: per kind (the hybrids share the Prius engine map)
+    motor: MachineArrays
+    generator: MachineArrays
+    pack: BatteryArrays
+    thresholds: np.ndarray  #: the fuzzy rule base's thresholds
+    pms: PmsConfig
+    configs: Mapping[str, DriveConfig]  #: per kind: body, wheels, accessories, limits
+    thermal: Mapping[str, ThermalConfig]  #: per kind: engine and catalyst thermal data
+    gearbox: ConvDesign  #: the conventional car's engine scale, wheel, idle, launch and gearbox losses
+    ratios: np.ndarray  #: its overall gear ratios ...
+    upshift_kmh: np.ndarray  #: ... and upshift speeds
+
+    @classmethod
+    def build(cls, lib: ComponentLibrary, params: Params) -> KernelLibrary:
+        sim, base, pms = params.sim, params.baseline, params.pms
+        e_h, e_c = engine_arrays(lib.engine_hybrid), engine_arrays(lib.engine_conventional)
+        acc_h = lib.accessory_hybrid.electrical_w
+        configs = {
+            "hybrid": drive_config(
+                lib, params, lib.body_conventional, lib.wheel_conventional, acc_h, lib.engine_hybrid
+            ),
+            "prius": drive_config(lib, params, lib.body_prius, lib.wheel_prius, acc_h, lib.engine_hybrid),
+            "conventional": drive_config(
+                lib,
+                params,
+                lib.body_conventional,
+                lib.wheel_conventional,
+                lib.accessory_conventional.mechanical_w,
+                lib.engine_conventional,
+            ),
+        }
+        amb, cold = sim.ambient_c, sim.cold_correction == "advisor"
+        thermal = {
+            "hybrid": thermal_config(
+                lib.engine_hybrid, lib.thermal_hybrid, lib.catalyst, lib.body_conventional.glider_mass_kg, amb, cold
+            ),
+            "prius": thermal_config(
+                lib.engine_hybrid, lib.thermal_hybrid, lib.catalyst, lib.body_prius.glider_mass_kg, amb, cold
+            ),
+            "conventional": thermal_config(
+                lib.engine_conventional,
+                lib.thermal_conventional,
+                lib.catalyst,
+                lib.body_conventional.glider_mass_kg,
+                amb,
+                cold,
+            ),
+        }
+        e = lib.engine_conventional
+        gearbox = ConvDesign(
+            base.conventional.p_eng_kw / e.peak_power_kw,
+            lib.wheel_conventional.radius_m,
+            lib.conventional_idle_rad_s,
+            lib.conventional_launch_rad_s,
+            e.max_speed_rad_s,
+            lib.accessory_conventional.mechanical_w,
+            *map(float, lib.gearbox.loss_coefficients),
+        )
+        return cls(
+            lib=lib,
+            params=params,
+            space=params.design_space.space(),
+            chassis_kg=conventional_chassis_kg(lib, base.conventional.test_mass_kg, base.conventional.p_eng_kw),
+            engines={"hybrid": e_h, "prius": e_h, "conventional": e_c},
+            motor=machine_arrays(lib.motor),
+            generator=machine_arrays(lib.generator),
+            pack=battery_arrays(lib.battery),
+            thresholds=thresholds(pms),
+            pms=PmsConfig(
+                pms.engine_on_threshold,
+                pms.engine_min_on_s,
+                pms.engine_min_off_s,
+                pms.engine_min_power_kw * 1e3,
+                pms.charge_power_fraction,
+                pms.soc_target,
+                sim.soc_min,
+                pms.soc_high.value,
+            ),
+            configs=configs,
+            thermal=thermal,
+            gearbox=gearbox,
+            ratios=np.ascontiguousarray(base.conventional.gear_ratios, float),
+            upshift_kmh=np.ascontiguousarray(base.conventional.upshift_kmh, float),
+        )
+
+    def mass_kg(self, X: np.ndarray) -> np.ndarray:
+        """Exact test mass of hybrid conversions (SPEC section 4 mass model), kg."""
+        X = self.space.check(X, integers=False)
+        return hybrid_masses(self.lib, self.chassis_kg, X[:, 0], X[:, 1], X[:, 2], X[:, 4]).test_mass_kg
+
+    def start_state(self, cycle_name: str) -> str:
+        """``cold`` or ``hot``: the thermal start of a cycle (params ``sim.start``; cold if not listed)."""
+        return self.params.sim.start.get(cycle_name, "cold")
+
+    def start_temperatures(self, cycle_name: str, kind: Kind) -> np.ndarray:
+        """The nine thermal nodes' start temperatures of a ``kind`` of vehicle on a cycle, degC."""
+        return start_temperatures(self.start_state(cycle_name), self.params.sim.ambient_c, self.thermal[kind].t_stat_c)
+
+
+def design_frame(design, space: DesignSpace) -> np.ndarray:
+    """Designs as an (n, 7) array in ``DESIGN_VARS`` order, from named columns (a DataFrame or a mapping of
+    arrays; extra columns ignored) or an array already in that order; checked against the design space."""
+    if isinstance(design, pd.DataFrame | Mapping):
+        missing = [v for v in DESIGN_VARS if v not in design]
+        if missing:
+            raise ValueError(f"designs: missing column(s) {', '.join(missing)}")
+        X = np.column_stack([np.asarray(design[v], dtype=float).reshape(-1) for v in DESIGN_VARS])
+    else:
+        X = np.asarray(design, dtype=float)
+    return space.check(X, what="designs")
+
+
+@dataclass(frozen=True, eq=False)
+class Vehicle:
+    """A batch of vehicles of one kind: the designs (``DESIGN_VARS`` columns; NaN for what a conventional car
+    lacks) and the :class:`~hevlib.sim.drive.KernelVehicle` record the kernels read."""
+
+    kind: Kind
+    design: pd.DataFrame
+    kernel: KernelVehicle
+    library: KernelLibrary
+
+    @property
+    def n(self) -> int:
+        return self.kernel.rows.shape[0]
+
+    @property
+    def mass_kg(self) -> np.ndarray:
+        """Test mass of each vehicle, kg."""
+        return self.kernel.rows[:, R_MASS].copy()
+
+    @classmethod
+    def from_design(cls, library: KernelLibrary, design) -> Vehicle:
+        """Hybrid conversions of the conventional car, one per design (named columns, see :func:`design_frame`):
+        engine, motor and generator scaled to their powers, the gear set, final drive and pack of the design, the
+        test mass of the mass model."""
+        X = design_frame(design, library.space)
+        return cls._make(library, "hybrid", X, library.mass_kg(X))
+
+    @classmethod
+    def baseline(cls, library: KernelLibrary, kind: Kind) -> Vehicle:
+        """One of the two reference vehicles: ``prius`` (the stock car on its own body) or ``conventional``."""
+        base = library.params.baseline
+        if kind == "prius":
+            X = design_vector(base.prius)[None, :]
+            return cls._make(library, kind, X, np.array([base.prius.test_mass_kg]))
+        if kind == "conventional":
+            X = np.array([[base.conventional.p_eng_kw] + [np.nan] * (len(DESIGN_VARS) - 1)])
+            return cls._make(library, kind, X, np.array([base.conventional.test_mass_kg]))
+        raise ValueError(f"vehicle: {kind!r} is not one of {', '.join(VEHICLES)}")
+
+    @classmethod
+    def _make(cls, library: KernelLibrary, kind: Kind, X: np.ndarray, mass_kg: np.ndarray) -> Vehicle:
+        lib = library.lib
+        rows = np.zeros((X.shape[0], N_R))
+        d = dict(zip(DESIGN_VARS, X.T, strict=True))
+        if kind == "conventional":
+            rows[:, R_S_ENG] = d["p_eng_kw"] / lib.engine_conventional.peak_power_kw
+        else:
+            rows[:, R_S_ENG] = d["p_eng_kw"] / lib.engine_hybrid.peak_power_kw
+            rows[:, R_S_MOT] = d["p_mot_kw"] / lib.motor.peak_power_kw
+            rows[:, R_S_GEN] = d["p_gen_kw"] / lib.generator.peak_power_kw
+            rows[:, R_I0] = d["i0"]
+            rows[:, R_N_BAT] = d["n_bat"]
+            rows[:, R_N_R] = d["n_r"]
+            rows[:, R_N_S] = d["n_s"]
+        rows[:, R_MASS] = mass_kg
+        kernel = KernelVehicle(
+            rows,
+            library.configs[kind],
+            library.thresholds,
+            library.pms,
+            library.engines[kind],
+            library.motor,
+            library.generator,
+            library.pack,
+            library.ratios,
+            library.upshift_kmh,
+            library.gearbox,
+            library.thermal[kind],
+        )
+        return cls(kind, pd.DataFrame(X, columns=list(DESIGN_VARS)), kernel, library)
+
+    def with_step(self, dt_s: float) -> Vehicle:
+        """The same vehicles driven at a time step of ``dt_s`` (the drive settings' default is 1 s)."""
+        if abs(dt_s - self.kernel.c.dt) <= 1e-12:
+            return self
+        kernel = self.kernel._replace(c=self.kernel.c._replace(dt=float(dt_s)))
+        return Vehicle(self.kind, self.design, kernel, self.library)
