@@ -41,8 +41,10 @@ def objective_indices(names: Iterable[str], *, what: str = "log_targets") -> tup
     return tuple(OBJECTIVES.index(n) for n in names)
 
 
-#: +1 minimised, -1 maximised (v_max, f_max).
-SENSE = np.array([-1.0 if k in ("v_max", "f_max") else 1.0 for k in OBJECTIVES])
+#: The objectives that are maximised (every other one is minimised): stated here once.
+MAXIMISED_OBJECTIVES: tuple[str, ...] = ("v_max", "f_max")
+#: +1 minimised, -1 maximised (:data:`MAXIMISED_OBJECTIVES`).
+SENSE = np.array([-1.0 if k in MAXIMISED_OBJECTIVES else 1.0 for k in OBJECTIVES])
 OBJECTIVE_UNITS = {
     "m_veh": "kg",
     "fc": "L/100 km",

@@ -221,6 +221,189 @@ def hypervolume(F: np.ndarray, reference, *, n_samples: int, seed: int, exact_ma
     return Hypervolume(value, se, "monte_carlo", n, int(n_samples), time.perf_counter() - t0)
 
 
+@dataclass(frozen=True)
+class CommonSamples:
+    """Monte Carlo hypervolume with one set of uniform samples for every front it measures (common random
+    numbers: the difference between two fronts' estimates has far less noise than either estimate).
+
+    The samples fill the box ``[lower, reference]``, which must hold every point of every front measured
+    (:meth:`of` raises otherwise); ``lower`` is fixed before measuring (e.g. the minimum over every front
+    to be compared). Estimate: box volume times the share of samples some row weakly dominates; the
+    standard error is the binomial one."""
+
+    lower: np.ndarray
+    reference: np.ndarray
+    samples: np.ndarray  # (n, m) in the box
+
+    @classmethod
+    def draw(cls, lower, reference, n_samples: int, seed: int) -> CommonSamples:
+        lo = np.asarray(lower, dtype=float).ravel()
+        r = _reference(reference, lo.size)
+        if np.any(lo >= r):
+            raise ValueError("hypervolume samples: lower corner must lie below the reference in every objective")
+        rng = np.random.default_rng(seed)
+        Z = lo + rng.random((int(n_samples), lo.size)) * (r - lo)
+        return cls(lo, r, Z)
+
+    @property
+    def volume(self) -> float:
+        return float(np.prod(self.reference - self.lower))
+
+    def of(self, F: np.ndarray) -> tuple[float, float]:
+        """(hypervolume, standard error) of ``F`` (n, m; minimised, normalised like the box)."""
+        F, r = _front(F, self.reference)
+        if len(F) == 0:
+            return 0.0, 0.0
+        if np.any(F < self.lower):
+            raise ValueError("hypervolume samples: a front reaches below the samples' box")
+        order = np.argsort(F, axis=0, kind="stable")
+        by_obj = np.ascontiguousarray(np.stack([F[order[:, j]] for j in range(F.shape[1])]))
+        sorted_vals = np.ascontiguousarray(np.take_along_axis(F, order, axis=0).T)
+        n = len(self.samples)
+        hits = 0
+        for start in range(0, n, _MC_CHUNK_SAMPLES * 8):
+            hits += int(_count_dominated(by_obj, sorted_vals, self.samples[start : start + _MC_CHUNK_SAMPLES * 8]))
+        p = hits / n
+        return self.volume * p, self.volume * float(np.sqrt(p * (1.0 - p) / n))
+
+
+@njit(parallel=True, cache=True)
+def _igd_plus(A: np.ndarray, R: np.ndarray) -> float:  # pragma: no cover
+    total = np.zeros(R.shape[0])
+    for i in prange(R.shape[0]):
+        best = np.inf
+        for a in range(A.shape[0]):
+            d = 0.0
+            for j in range(R.shape[1]):
+                e = A[a, j] - R[i, j]
+                if e > 0.0:
+                    d += e * e
+                    if d >= best:
+                        break
+            if d < best:
+                best = d
+        total[i] = np.sqrt(best)
+    return total.mean()
+
+
+def igd_plus(F: np.ndarray, reference_front: np.ndarray) -> float:
+    """IGD+ (Ishibuchi et al. 2015): mean over the reference front's points ``r`` of the distance to the
+    nearest row ``a`` of ``F`` counting only where ``a`` is worse, ``sqrt(sum_j max(a_j - r_j, 0)^2)``;
+    weakly Pareto-compliant, 0 when ``F`` covers the reference front. Both minimised, same scaling."""
+    F = np.ascontiguousarray(np.asarray(F, dtype=float))
+    R = np.ascontiguousarray(np.asarray(reference_front, dtype=float))
+    if F.ndim != 2 or R.ndim != 2 or F.shape[1] != R.shape[1] or len(R) == 0:
+        raise ValueError(f"igd+: front {F.shape} and reference front {R.shape} must be (n, m) with the same m")
+    if len(F) == 0:
+        return float("inf")
+    return float(_igd_plus(F, R))
+
+
+@njit(parallel=True, cache=True)
+def _dominated_counts(F: np.ndarray, Z: np.ndarray) -> np.ndarray:  # pragma: no cover
+    counts = np.zeros(F.shape[0], dtype=np.int64)
+    for i in prange(F.shape[0]):
+        c = 0
+        for s in range(Z.shape[0]):
+            ok = True
+            for j in range(F.shape[1]):
+                if F[i, j] > Z[s, j]:
+                    ok = False
+                    break
+            if ok:
+                c += 1
+        counts[i] = c
+    return counts
+
+
+@njit(parallel=True, cache=True)
+def _dominated_lists(F: np.ndarray, Z: np.ndarray, start: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
+    for i in prange(F.shape[0]):
+        c = start[i]
+        for s in range(Z.shape[0]):
+            ok = True
+            for j in range(F.shape[1]):
+                if F[i, j] > Z[s, j]:
+                    ok = False
+                    break
+            if ok:
+                out[c] = s
+                c += 1
+
+
+@njit(cache=True)
+def _greedy_cover(start: np.ndarray, items: np.ndarray, n_samples: int, k: int) -> np.ndarray:  # pragma: no cover
+    """Greedy maximum coverage: ``k`` sets (CSR ``start``/``items``) each adding the most uncovered samples
+    (ties: the lower index); stops early when no set adds any."""
+    n = start.size - 1
+    covered = np.zeros(n_samples, dtype=np.bool_)
+    taken = np.zeros(n, dtype=np.bool_)
+    gain = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        gain[i] = start[i + 1] - start[i]  # an upper bound on the true gain from now on (lazy greedy)
+    chosen = np.full(k, -1, dtype=np.int64)
+    for t in range(k):
+        while True:
+            best, best_i = -1, -1
+            for i in range(n):
+                if not taken[i] and gain[i] > best:
+                    best, best_i = gain[i], i
+            if best_i < 0 or best <= 0:
+                return chosen[:t]
+            g = 0
+            for p in range(start[best_i], start[best_i + 1]):
+                if not covered[items[p]]:
+                    g += 1
+            gain[best_i] = g
+            second = -1
+            for i in range(n):
+                if not taken[i] and i != best_i and gain[i] > second:
+                    second = gain[i]
+            if g >= second and g > 0:
+                break
+            if g <= 0 and second <= 0:
+                return chosen[:t]
+        taken[best_i] = True
+        chosen[t] = best_i
+        for p in range(start[best_i], start[best_i + 1]):
+            covered[items[p]] = True
+    return chosen
+
+
+def hv_greedy_subset(F: np.ndarray, k: int, reference, *, n_samples: int, seed: int) -> np.ndarray:
+    """Indices (sorted) of ``k`` rows of ``F`` (n, m; minimised, normalised) chosen greedily for
+    hypervolume: each next row is the one whose dominated region adds the most to the rows already
+    chosen (Monte Carlo: ``n_samples`` seeded uniform samples in ``[min(F), reference]``; lazy greedy on
+    the samples each row dominates, which is the greedy of a submodular function: within ``1 - 1/e`` of the
+    best ``k``-subset's estimate). Rows that add nothing (outside the reference box, or covered by the
+    chosen ones) come last, in order of the samples they dominate alone, then of index. All rows when
+    ``n <= k``."""
+    F = np.asarray(F, dtype=float)
+    n = len(F)
+    if n <= k:
+        return np.arange(n)
+    r = _reference(reference, F.shape[1])
+    usable = np.flatnonzero(np.all(np.isfinite(F), axis=1) & np.all(F < r, axis=1))
+    chosen = np.zeros(0, dtype=np.int64)
+    alone = np.zeros(n, dtype=np.int64)
+    if len(usable):
+        Fu = np.ascontiguousarray(F[usable])
+        lo = Fu.min(axis=0)
+        Z = lo + np.random.default_rng(seed).random((int(n_samples), F.shape[1])) * (r - lo)
+        counts = _dominated_counts(Fu, Z)
+        start = np.zeros(len(Fu) + 1, dtype=np.int64)
+        start[1:] = np.cumsum(counts)
+        items = np.empty(int(start[-1]), dtype=np.int64)
+        _dominated_lists(Fu, Z, start, items)
+        chosen = usable[_greedy_cover(start, items, int(n_samples), int(k))]
+        alone[usable] = counts
+    if len(chosen) < k:
+        rest = np.setdiff1d(np.arange(n), chosen)
+        order = np.lexsort((rest, -alone[rest]))
+        chosen = np.concatenate([chosen, rest[order][: k - len(chosen)]])
+    return np.sort(chosen)
+
+
 def igd(F: np.ndarray, reference_front: np.ndarray) -> float:
     """Inverted generational distance (pymoo): mean distance from each reference point to its nearest row of F."""
     from pymoo.indicators.igd import IGD
@@ -232,4 +415,14 @@ def igd(F: np.ndarray, reference_front: np.ndarray) -> float:
     return float(IGD(R)(F))
 
 
-__all__ = ["Normalisation", "Hypervolume", "hypervolume", "hypervolume_mc", "hypervolume_exact", "igd"]
+__all__ = [
+    "CommonSamples",
+    "Hypervolume",
+    "Normalisation",
+    "hypervolume",
+    "hypervolume_exact",
+    "hypervolume_mc",
+    "hv_greedy_subset",
+    "igd",
+    "igd_plus",
+]

@@ -327,6 +327,50 @@ class OptimiseParams(_Strict):
         return self
 
 
+# --------------------------------------------------------------------------------------- benchmark
+BENCHMARK_SOURCES = ("nsga3", "moead", "moga", "parego", "nsga3_direct", "moead_direct", "lhs", "oracle")
+
+
+class ParegoParams(_Strict):
+    """Batch ParEGO on Gaussian processes (hevlib/optimise/parego.py, hevlib/surrogates/gp.py)."""
+
+    batch: Annotated[int, Field(ge=1, le=10_000)] = 100  # designs simulated per round (one weight vector each)
+    pool_random: Annotated[int, Field(ge=1, le=1_000_000)] = 2000  # uniform candidates per round
+    pool_local: Annotated[int, Field(ge=0, le=1_000_000)] = 2000  # moves around the non-dominated designs
+    local_step: Annotated[float, Field(gt=0, le=1)] = 0.05  # their standard deviation, share of each range
+    n_samples: Annotated[int, Field(ge=1, le=10_000)] = 32  # posterior draws per candidate
+    rho: Annotated[float, Field(ge=0, le=1)] = 0.05  # augmented Chebyshev term
+    max_fit_rows: Annotated[int, Field(ge=10, le=100_000)] = 250  # designs the hyperparameters are fitted on
+
+
+class DirectParams(_Strict):
+    """A search run directly on the simulator at a small population (the benchmark's direct searches)."""
+
+    pop_size: Annotated[int, Field(ge=4, le=100_000)]
+    n_neighbors: Annotated[int, Field(ge=2, le=1000)] = 10  # moead only
+
+
+class BenchmarkParams(_Strict):
+    """The equal-budget, many-seed benchmark of every source (benchmarks/surrogate/dvc.yaml; not in the
+    default pipeline). Every simulation counts, the DOE's included; the judged normalisation comes from the
+    DOE and held-out designs only and is never given to a search."""
+
+    sources: list[Literal[BENCHMARK_SOURCES]] = list(BENCHMARK_SOURCES)  # type: ignore[valid-type]
+    seeds: Annotated[int, Field(ge=1, le=1000)] = 7  # runs per source (the oracle: oracle_seeds)
+    oracle_seeds: Annotated[int, Field(ge=1, le=1000)] = 3
+    seed: Seed = 2026  # root of every run's seed
+    budget: Annotated[int, Field(ge=10, le=10_000_000)] = 2000  # simulations per SAEA and LHS run
+    direct_budget: Annotated[int, Field(ge=10, le=10_000_000)] = 5000  # per direct-search run
+    budgets: Annotated[list[Annotated[int, Field(ge=1)]], Field(min_length=1)] = [250, 500, 1000, 2000, 5000]
+    nsga3_direct: DirectParams = DirectParams(pop_size=77)
+    moead_direct: DirectParams = DirectParams(pop_size=50)
+    parego: ParegoParams = ParegoParams()
+    hv_samples: Annotated[int, Field(ge=1000, le=100_000_000)] = 2_000_000  # common Monte Carlo samples
+    hv_seed: Seed = 5
+    alpha: Annotated[float, Field(gt=0, lt=1)] = 0.05  # Holm-corrected significance level
+    a12_large: Annotated[float, Field(gt=0.5, lt=1)] = 0.71  # Vargha-Delaney's "large" effect
+
+
 # ------------------------------------------------------------------------------------------ screen
 class ScreenParams(_Strict):
     """Screening of the merged non-dominated designs, ranking, and the pick for validation (SPEC 9)."""
@@ -373,6 +417,7 @@ class Params(_Strict):
     optimise: OptimiseParams | None = None
     screen: ScreenParams = ScreenParams()
     validation: ValidateParams = Field(ValidateParams(), alias="validate")
+    benchmark: BenchmarkParams = BenchmarkParams()
 
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True, strict=True)
 

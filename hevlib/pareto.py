@@ -386,45 +386,69 @@ def normalisation_from_dict(data: dict) -> Normalisation:
     return Normalisation(ideal, nadir)
 
 
+JUDGED_OBJECT = "archive"
+
+
 def source_summary(
-    fronts: Mapping[str, Table], reports: Mapping[str, dict], merged: Table, screen, optimise
+    fronts: Mapping[str, Table],
+    archives: Mapping[str, Table],
+    reports: Mapping[str, dict],
+    merged: Table,
+    screen,
+    optimise,
+    norm: Normalisation,
 ) -> tuple[dict, dict[str, float]]:
     """``reports/pareto.json`` additions and the hypervolumes' wall times (s; machine-dependent, for the
-    logs). The additions: the hypervolume normalisation (ideal and nadir of the screen-passing designs of
-    every source's final front: fixed for this run), its reference point, how each source's hypervolume
-    was computed (exact or Monte Carlo, :func:`hevlib.indicators.hypervolume`, with its points, samples
-    and error) and, per source, its hypervolume, ratio to the oracle's, simulations used, spread and
-    share of the picks."""
-    norm = screened_normalisation(list(fronts.values()), screen)
+    logs). Every source is judged on the same object (``judged_object: archive``): every design it
+    simulated (its archive, ``data/pareto/<source>_archive.parquet``: the DOE's included for the
+    surrogate-assisted ones) that passes the screen, not thinned, with the one normalisation ``norm``
+    (screen-passing DOE and held-out designs: data no source produced) and reference point. Per source:
+    that hypervolume (exact or Monte Carlo, :func:`hevlib.indicators.hypervolume`, with its points,
+    samples and error), its ratio to the oracle's archive, the hypervolume of the front shown to users
+    (the hypervolume-greedy subset of the archive, the same size for every source), simulations used,
+    spread and share of the picks. One seed each: the seed spread is the benchmark's
+    (``reports/benchmark/summary.json``)."""
     settings = HvSettings.from_params(norm, optimise, screen)
-    hv = {a: settings.of(t) for a, t in fronts.items()}
-    oracle_hv = hv["oracle"][0].value if "oracle" in hv else None
+    judged = {a: settings.of(t) for a, t in archives.items()}
+    shown = {a: settings.of(t) for a, t in fronts.items()}
+    oracle_hv = judged["oracle"][0].value if "oracle" in judged else None
+    oracle_front = shown["oracle"][0].value if "oracle" in shown else None
     picked_algos = lazy(merged).filter(pl.col("picked")) if "picked" in columns(merged) else None
     n_by_algo = _count(picked_algos, list(fronts)) if picked_algos is not None else dict.fromkeys(fronts, 0)
     n_picked = max(n_rows(picked_algos) if picked_algos is not None else 0, 1)
     sources = {}
     for a, t in fronts.items():
         n_a = n_by_algo[a]
-        h, n_counted = hv[a]
+        h, n_counted = judged[a]
+        f, _ = shown[a]
         sources[a] = {
+            "judged_object": JUDGED_OBJECT,
             "hypervolume": h.value,
             "hypervolume_se": h.se,
             "hypervolume_method": h.method,
             "hypervolume_points": h.n_points,
             "hypervolume_designs": n_counted,
             "hv_ratio_to_oracle": h.value / oracle_hv if oracle_hv else None,
+            "front_hypervolume": f.value,
+            "front_hypervolume_se": f.se,
+            "front_hv_ratio_to_oracle": f.value / oracle_front if oracle_front else None,
             "n_simulations": reports[a].get("n_simulations"),
+            "archive_size": n_rows(archives[a]),
             "front_size": n_rows(t),
             "picked": n_a,
             "picked_share": n_a / n_picked,
             "spread": spread(t, norm),
+            "seed_spread": f"reports/benchmark/summary.json: sources.{a}",
         }
-    hv_report = {**settings.describe(), "choice": {a: h.describe() for a, (h, _) in hv.items()}}
+    hv_report = {**settings.describe(), "choice": {a: h.describe() for a, (h, _) in judged.items()}}
     hv_report.pop("normalisation")
-    wall = {a: h.wall_s for a, (h, _) in hv.items()}
+    wall = {a: h.wall_s for a, (h, _) in judged.items()}
     return {
+        "judged_object": JUDGED_OBJECT,
+        "judged_object_means": "every design the source simulated (the DOE's included for the surrogate-assisted "
+        "sources) that passes the screen, not thinned; the oracle is the best-known front at its budget, not the truth",
         "hv_reference": settings.reference,
-        "normalisation": normalisation_dict(norm),
+        "normalisation": {**normalisation_dict(norm), "built_from": "screen-passing DOE and held-out designs"},
         "hypervolume": hv_report,
         "sources": sources,
     }, wall
@@ -432,15 +456,15 @@ def source_summary(
 
 # ------------------------------------------------------------------------------ rank and pick
 def normalise(F: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
-    """Min-max normalise the columns of ``F`` over the rows of ``ref`` (default ``F``); constant -> 0."""
+    """Min-max normalise the columns of ``F`` over the rows of ``ref`` (default ``F``) with the one
+    :class:`~hevlib.indicators.Normalisation`; an objective constant over ``ref`` carries no preference
+    in a ranking, so it maps to 0 here."""
     F = np.asarray(F, dtype=float)
     ref = F if ref is None else np.asarray(ref, dtype=float)
     if len(ref) == 0:
         return np.zeros_like(F)
-    lo, hi = ref.min(axis=0), ref.max(axis=0)
-    span = hi - lo
-    safe = np.where(span > 0, span, 1.0)
-    return np.where(span > 0, (F - lo) / safe, 0.0)
+    norm = Normalisation(ref.min(axis=0), ref.max(axis=0))
+    return np.where(norm.nadir > norm.ideal, norm(F), 0.0)
 
 
 def ideal_distance(F: np.ndarray) -> np.ndarray:

@@ -29,7 +29,14 @@ import pandas as pd
 import pyarrow as pa
 
 from hevlib.cycles import Cycle
-from hevlib.design import BOOL_RESPONSES, DESIGN_VARS, RESPONSES, design_matrix, design_vector
+from hevlib.design import (
+    BOOL_RESPONSES,
+    DESIGN_VARS,
+    MAXIMISED_OBJECTIVES,
+    RESPONSES,
+    design_matrix,
+    design_vector,
+)
 from hevlib.pareto import algo_names
 
 #: Responses of the improvement table, in its row order.
@@ -45,7 +52,8 @@ IMPROVEMENT_RESPONSES: tuple[str, ...] = (
     "f_max",
     "eta_drivetrain",
 )
-MAXIMISED = frozenset({"v_max", "f_max", "eta_drivetrain"})
+#: Responses where more is better: the maximised objectives (hevlib.design) and the drivetrain efficiency.
+MAXIMISED = frozenset({*MAXIMISED_OBJECTIVES, "eta_drivetrain"})
 #: Responses whose improvement is an absolute difference (SOC percentage points), not a percentage.
 SOC_POINTS = frozenset({"diff_soc"})
 BASELINES: tuple[str, ...] = ("conventional", "prius")

@@ -18,7 +18,7 @@ def deps(
     check: bool = typer.Option(False, "--check", help="exit 1 when a stage imports code its deps omit"),
 ) -> None:
     """Print (or --write, or --check) every stage's code deps: the modules its `hev` command imports."""
-    root = dvc_yaml.resolve().parent
+    root = next(p for p in dvc_yaml.resolve().parents if (p / "stages").is_dir() and (p / "hevlib").is_dir())
     text = dvc_yaml.read_text()
     if check:
         problems = check_deps(root, text)

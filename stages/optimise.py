@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import pandas as pd
 import typer
 
 from hevlib.io import read_table, write_json, write_parquet
@@ -51,10 +50,13 @@ def optimise_stage(
     source: str = typer.Argument(..., help="nsga3, moead, moga (surrogate-assisted) or oracle"),
     params: str = PARAMS_OPTION,
 ) -> None:
-    """Run SOURCE on the sizing cycle; write data/pareto/SOURCE.parquet (every round's re-simulated
-    candidates, column ``round``), reports/optimise_SOURCE.json and reports/plots/optimise_SOURCE.png."""
+    """Run SOURCE on the sizing cycle; write data/pareto/SOURCE.parquet (every round's front, column
+    ``round``), data/pareto/SOURCE_archive.parquet (every simulation, the DOE's included),
+    reports/optimise_SOURCE.json and reports/plots/optimise_SOURCE.png."""
+    from hevlib.design import DESIGN_VARS, RESPONSES
     from hevlib.doe import training_data
-    from hevlib.optimise import HvSettings, normalisation_from_dict, oracle, surrogate_assisted
+    from hevlib.optimise import HvSettings, oracle, surrogate_assisted
+    from hevlib.optimise.archive import ARCHIVE_SCHEMA, SimulationLog
     from hevlib.pareto import screened_normalisation, simulated_as_front
 
     cfg = params_from(params)
@@ -73,21 +75,18 @@ def optimise_stage(
         return sim.run(X, cycle, vehicle="hybrid", batch_size=cfg.doe.batch_size)
 
     doe_df = read_table(DOE)
-
-    def hv_settings(norm):
-        return HvSettings.from_params(norm, o, cfg.screen)
+    # the one normalisation every source is judged on: screen-passing designs of the DOE and the held-out
+    # set, which no source produced; it only scores (HvSettings), never steers a search
+    judged = [simulated_as_front(doe_df), simulated_as_front(read_table(HELDOUT))]
+    hv = HvSettings.from_params(screened_normalisation(judged, cfg.screen), o, cfg.screen)
+    log = SimulationLog(simulate)  # every simulation the source makes: its archive
 
     if source == "oracle":
         settings = o.oracle
-        simulated = [simulated_as_front(doe_df), simulated_as_front(read_table(HELDOUT))]
-
-        def hv_for(table: pd.DataFrame):
-            # the one normalisation: screen-passing designs of the DOE, the held-out set and the oracle's front
-            return hv_settings(screened_normalisation([*simulated, table], cfg.screen))
-
         with progress_callback(f"oracle ({settings.algorithm}): {settings.n_gen} generations") as cb:
-            result = oracle(make_problem, settings, simulate, hv_for, progress=cb)
+            result = oracle(make_problem, settings, log, hv, progress=cb)
         surrogate = "simulator"
+        final = result.population
     else:
         from hevlib.surrogates import fit_surrogate
 
@@ -95,7 +94,7 @@ def optimise_stage(
         if not ORACLE_REPORT.exists():
             raise FileNotFoundError(f"{ORACLE_REPORT}: no such file; run `hev optimise oracle` first")
         ref = json.loads(ORACLE_REPORT.read_text())
-        hv = hv_settings(normalisation_from_dict(ref["hypervolume_settings"]["normalisation"]))
+        log.record(doe_df[list(DESIGN_VARS)].to_numpy(dtype=float), doe_df[list(RESPONSES)])  # the DOE counts
         X, Y = training_data(doe_df, what=str(DOE))
         space = cfg.design_space.space()
 
@@ -105,17 +104,24 @@ def optimise_stage(
         label = f"{source}: {o.infill.rounds + 1} rounds"
         with progress_callback(label) as cb:
             result = surrogate_assisted(
-                source, settings, o.infill, make_problem, fit, X, Y, simulate, hv, ref["hypervolume"], progress=cb
+                source, settings, o.infill, make_problem, fit, X, Y, log, hv, ref["archive"]["hypervolume"], progress=cb
             )
         surrogate = settings.surrogate
+        final = "last"
 
     last = result.table[result.table["round"] == result.table["round"].max()]
-    norm = normalisation_from_dict(result.report["hypervolume_settings"]["normalisation"])
+    norm = hv.norm
     fig = front_figure(last, norm, title=f"{source} ({surrogate}): last round's front on {cycle.name}")
     write_parquet(
         FRONTS_DIR / f"{source}.parquet",
         result.table,
         result.schema,
+        metadata={"source": source, "surrogate": surrogate, "cycle": cycle.name},
+    )
+    write_parquet(
+        FRONTS_DIR / f"{source}_archive.parquet",
+        log.table(final),
+        ARCHIVE_SCHEMA,
         metadata={"source": source, "surrogate": surrogate, "cycle": cycle.name},
     )
     write_json(REPORTS_DIR / f"optimise_{source}.json", result.report)
@@ -126,6 +132,7 @@ def optimise_stage(
     typer.echo(
         f"optimise {source}: {r['front_size']} designs, {r['n_simulations']} simulations in "
         f"{result.runtimes['runtime_total_s']:.0f} s; HV {r['hypervolume']:.4g} +- {r['hypervolume_se']:.2g}"
-        + (f" ({100 * ratio:.0f} % of the oracle's)" if ratio is not None else "")
+        + f"; archive HV {r['archive']['hypervolume']:.4g}"
+        + (f" ({100 * ratio:.0f} % of the oracle's archive)" if ratio is not None else "")
         + f" -> {FRONTS_DIR / (source + '.parquet')}"
     )

@@ -7,13 +7,15 @@ from pathlib import Path
 
 import polars as pl
 
-from hevlib.io import write_json, write_parquet, write_text
-from hevlib.pareto import select_designs, source_summary, table_schema
+from hevlib.io import read_table, write_json, write_parquet, write_text
+from hevlib.pareto import screened_normalisation, select_designs, simulated_as_front, source_summary, table_schema
 from hevlib.plots import save_figure
 from hevlib.plots.pareto import distributions_figure, infill_figure, tradeoff_data, tradeoffs_figure
 from hevlib.tables import scan
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, stage
+from stages.doe import DOE
+from stages.heldout import HELDOUT
 
 FRONTS_DIR = Path("data/pareto")
 MERGED = FRONTS_DIR / "merged.parquet"
@@ -38,8 +40,11 @@ def pareto(params_path: str = PARAMS_OPTION) -> None:
     reports = {a: json.loads((REPORTS_DIR / f"optimise_{a}.json").read_text()) for a in algos}
     # a source's front is its last round's rows (earlier rounds are the infill history)
     fronts = {a: t.filter(pl.col("round") == pl.col("round").max()).drop("round").collect() for a, t in tables.items()}
+    archives = {a: scan(FRONTS_DIR / f"{a}_archive.parquet").collect() for a in algos}
+    judged = [simulated_as_front(read_table(DOE)), simulated_as_front(read_table(HELDOUT))]
+    norm = screened_normalisation(judged, params.screen)
     result = select_designs(fronts, params.screen)
-    additions, hv_wall_s = source_summary(fronts, reports, result.merged, params.screen, o)
+    additions, hv_wall_s = source_summary(fronts, archives, reports, result.merged, params.screen, o, norm)
     result.summary.update(additions)
     kept = result.merged.filter(pl.col("kept")).to_pandas()  # matplotlib's edge
     figures = {

@@ -225,3 +225,57 @@ def test_oracle_and_infill_params_are_validated():
         OptimiseParams(algorithms=algos, sources=["moga"])
     with pytest.raises(ValueError):
         InfillParams(criterion="best")
+
+
+# ------------------------------------------------------------------------------------ judging
+def test_every_round_is_judged_on_simulated_objectives_of_the_archive():
+    """The path behind ``reports/optimise_<algo>.json``: the front's and the archive's hypervolumes are of
+    what the simulator said (recomputed here from the designs alone), never of the predictions."""
+    from hevlib.optimise.archive import SimulationLog
+
+    X_doe = _designs(30, 1)
+    R_doe = stand_in_simulate(X_doe)
+    log = SimulationLog(stand_in_simulate)
+    log.record(X_doe, R_doe)
+    hv = _hv()
+    infill = InfillParams(rounds=1, designs_per_round=12, n_gen=5, criterion="diverse")
+    res = surrogate_assisted(
+        "nsga3",
+        SMALL["nsga3"],
+        infill,
+        _make_problem,
+        CountingFit(),
+        X_doe,
+        R_doe[list(OBJECTIVES)].to_numpy(),
+        log,
+        hv,
+    )
+    last = res.table[res.table["round"] == 1]
+    truth = simulated_as_front(stand_in_simulate(last[list(DESIGN_VARS)].to_numpy())).assign(
+        **{v: last[v].to_numpy() for v in DESIGN_VARS}
+    )
+    assert res.report["hypervolume"] == hv.of(truth)[0].value > 0
+    everything = log.table("all").to_pandas()
+    X_all = everything[list(DESIGN_VARS)].to_numpy()
+    truth_all = simulated_as_front(stand_in_simulate(X_all)).assign(
+        **{v: X_all[:, j] for j, v in enumerate(DESIGN_VARS)}
+    )
+    assert res.report["archive"]["hypervolume"] == hv.of(truth_all)[0].value
+    assert res.report["rounds"][-1]["archive_hypervolume"] == res.report["archive"]["hypervolume"]
+    assert res.report["archive"]["n_simulations"] == res.report["n_simulations"] == len(log)
+    pred = last.assign(**{f"sim_{k}": last[f"pred_{k}"] for k in OBJECTIVES})
+    assert abs(hv.of(pred)[0].value - res.report["hypervolume"]) > 1e-3 * res.report["hypervolume"]
+
+
+def test_the_archive_front_is_non_dominated_by_simulation_not_by_prediction():
+    from hevlib.optimise.infill import archive_front
+
+    X = _designs(2, 9)
+    sim = stand_in_simulate(X)
+    table = simulated_as_front(sim).assign(**{v: X[:, j] for j, v in enumerate(DESIGN_VARS)})
+    for k in OBJECTIVES:  # design 0 is better in every simulated objective; the predictions say the opposite
+        good, bad = (1.0, 2.0) if k not in ("v_max", "f_max") else (2.0, 1.0)
+        table[f"sim_{k}"] = [good, bad]
+        table[f"pred_{k}"] = [bad, good]
+    front = archive_front([table], None, _hv(screen=None))
+    assert len(front) == 1 and front["p_eng_kw"].item() == X[0, 0]

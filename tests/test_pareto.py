@@ -340,11 +340,23 @@ def test_pareto_stage_writes_its_outputs(tmp_path, monkeypatch):
         earlier.insert(0, "round", 0)
         front.insert(0, "round", 1)
         pd.concat([earlier, front], ignore_index=True).to_parquet(f"data/pareto/{algo}.parquet")
+        archive = pd.concat([earlier, front], ignore_index=True).drop(columns="round")  # every simulation
+        archive.insert(0, "sim_index", np.arange(1, len(archive) + 1))
+        archive.assign(final_population=archive["sim_index"] > len(earlier)).to_parquet(
+            f"data/pareto/{algo}_archive.parquet"
+        )
         rounds = [{"round": r, "n_simulations": 27 + 100 * r, "hv_ratio_to_oracle": 0.5 + 0.1 * r} for r in (0, 1)]
         Path(f"reports/optimise_{algo}.json").write_text(json.dumps({"n_simulations": 127, "rounds": rounds}))
+    Path("data/doe").mkdir()
+    for name, seed in (("doe", 5), ("heldout", 6)):  # the judged normalisation's designs
+        t = synthetic_front(60, seed)
+        t.rename(columns={c: c.removeprefix("sim_") for c in t.columns if c.startswith("sim_")}).to_parquet(
+            f"data/doe/{name}.parquet"
+        )
     out = runner.invoke(app, ["pareto"])
     assert out.exit_code == 0, out.output
     report = json.loads(Path("reports/pareto.json").read_text())
+    assert {s["judged_object"] for s in report["sources"].values()} == {report["judged_object"]} == {"archive"}
     assert report["counts"]["input"] == sum(len(f) for f in fronts.values())  # last rounds only
     assert set(report["sources"]) == {"nsga3", "moead", "moga", "oracle"} and report["hv_reference"] == 1.1
     assert report["sources"]["oracle"]["hv_ratio_to_oracle"] == 1.0

@@ -13,8 +13,10 @@
   source's final front.
 
 Every simulation a source uses is counted in ``n_simulations`` (the DOE included for the surrogate
-methods), and every round is judged by the one hypervolume (:class:`HvSettings`) of its re-simulated
-designs, against the oracle's when given.
+methods) and recorded when ``simulate`` is a :class:`~hevlib.optimise.archive.SimulationLog`; every round
+is judged by the one hypervolume (:class:`HvSettings`) of that archive -- every simulated design that
+passes the screen, not thinned (``archive_hypervolume``; the oracle is judged the same way) -- against
+the oracle's archive when given. The thinned front's own hypervolume stays in ``hypervolume``.
 """
 
 from __future__ import annotations
@@ -29,7 +31,9 @@ import pandas as pd
 import pyarrow as pa
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
+from hevlib.indicators import Normalisation, hv_greedy_subset
 from hevlib.optimise.algorithms import Front, optimise
+from hevlib.optimise.archive import SimulationLog
 from hevlib.optimise.problem import HevProblem, SimulatorModel
 from hevlib.optimise.report import HvSettings, front_report, runtimes
 from hevlib.optimise.resim import drop_stalled, front_schema, front_table, resimulate
@@ -121,39 +125,78 @@ def _ratio(hv: float, hv_oracle: float | None) -> float | None:
     return hv / hv_oracle if hv_oracle else None
 
 
+def archive_table(archive: pa.Table | pd.DataFrame, problem: HevProblem, algo: str = "oracle") -> pd.DataFrame:
+    """Every distinct design of a simulation archive (:data:`~hevlib.optimise.archive.ARCHIVE_SCHEMA`; its
+    latest row) as a front table (:func:`~hevlib.optimise.resim.front_table`), the simulated objectives as
+    the "predicted" ones: what a search on the simulator saw is what was simulated. ``problem`` must not
+    carry the stalled callable (it would simulate again): its constraints read the objectives given."""
+    df = archive.to_pandas() if isinstance(archive, pa.Table) else archive
+    df = df.drop_duplicates(subset=list(DESIGN_VARS), keep="last").reset_index(drop=True)
+    X = df[list(DESIGN_VARS)].to_numpy(dtype=float)
+    sim = pd.DataFrame({k: df[f"sim_{k}"].to_numpy() for k in RESPONSES})
+    F = sim[list(OBJECTIVES)].to_numpy(dtype=float)
+    front = Front(algo, X, F, None, len(df), 0.0, len(df), 0)
+    return front_table(front, sim, problem)
+
+
 def oracle(
     make_problem: Callable[..., HevProblem],
     settings: AlgoParams,
     simulate: Callable[[np.ndarray], pd.DataFrame],
-    hv_for: Callable[[pd.DataFrame], HvSettings],
+    hv: HvSettings | Callable[[pd.DataFrame | None], HvSettings],
     progress: Callable[[int, int], None] | None = None,
 ) -> StudyResult:
     """``settings.algorithm`` with the simulator as the model; ``make_problem(model, stalled)`` builds the
     same problem the surrogate methods solve (constraints on simulated figures, stalls infeasible).
-    ``hv_for(table)`` gives the hypervolume settings once the front is known (its normalisation may
-    depend on the oracle's own designs)."""
+
+    Every simulation is recorded (:class:`~hevlib.optimise.archive.SimulationLog`; ``simulate`` may be one
+    already). The source's front, like every source's, is drawn from its archive (:func:`archive_front`:
+    the screen-passing, non-dominated designs of everything it simulated, the hypervolume-greedy
+    ``pop_size`` of them); nothing is simulated twice. ``StudyResult.responses`` holds the archive
+    (:data:`~hevlib.optimise.archive.ARCHIVE_SCHEMA`). ``hv``: the hypervolume settings (or a callable
+    giving them, for callers that build them late)."""
     t0 = time.perf_counter()
-    model = SimulatorModel(simulate)
+    log = simulate if isinstance(simulate, SimulationLog) else SimulationLog(simulate)
+    model = SimulatorModel(log)
     problem = make_problem(model, stalled=model.stalled)
-    front = optimise(problem, settings.algorithm, settings, progress)
-    front, table, _, n_stalled = _simulate_front(front, model.responses, problem)
+    found = optimise(problem, settings.algorithm, settings, progress)
+    archive = log.table(found.population if found.population is not None else found.X)
+    pool = archive_table(archive, make_problem(model))
+    pool = pool[pool["feasible"] & ~pool["sim_stalled"].astype(bool)]  # the constraints the search had
+    hv = hv(pool) if callable(hv) else hv
+    n_pop = len(found.population) if found.population is not None else 0
+    table = archive_front([pool], max(settings.pop_size, n_pop), hv)
+    Y = table[[f"sim_{k}" for k in OBJECTIVES]].to_numpy(dtype=float)
+    front = dataclasses.replace(found, X=table[list(DESIGN_VARS)].to_numpy(dtype=float), F=Y, std=None)
+    table = table.drop(columns=[c for c in table.columns if c.endswith("_std")])
     table.insert(0, ROUND, 0)
-    report = front_report(front, table, hv_for(table), settings=settings)
+    report = front_report(front, table, hv, settings=settings)
+    judged = archive_hypervolume(log, hv)
     report.update(
         algo="oracle",
         algorithm=settings.algorithm,
         surrogate=None,
         n_simulations=model.n_simulations,
-        n_stalled_dropped=n_stalled,
-        rounds=[_round_entry(0, model.n_simulations, report, report["hypervolume"])],
+        n_stalled_dropped=0,
+        archive=judged,
+        hv_ratio_to_oracle=1.0,
+        rounds=[_round_entry(0, model.n_simulations, report, judged["hypervolume"], judged)],
     )
     wall = time.perf_counter() - t0
-    times = {**runtimes(front, 0.0), "algo": "oracle", "runtime_total_s": wall}
-    return StudyResult(front, table, report, times)
+    times = {**runtimes(found, 0.0), "algo": "oracle", "runtime_total_s": wall}
+    return StudyResult(front, table, report, times, responses=archive.to_pandas(), population=found.population)
 
 
-def _round_entry(r: int, n_sims: int, report: dict, hv_oracle: float | None) -> dict:
-    return {
+def archive_hypervolume(log: SimulationLog, hv: HvSettings) -> dict:
+    """The judged figure of a source: the hypervolume (``hv``) of every design it simulated so far that
+    passes the screen (the archive, not thinned; ``judged_object: archive``), with how it was computed."""
+    h, n = hv.of(log.table("all").to_pandas())
+    return {"judged_object": "archive", "hypervolume": h.value, "hypervolume_se": h.se, "method": h.method,
+            "points": h.n_points, "designs": n, "n_simulations": len(log)}  # fmt: skip
+
+
+def _round_entry(r: int, n_sims: int, report: dict, hv_oracle: float | None, archive: dict | None = None) -> dict:
+    entry = {
         "round": r,
         "n_simulations": int(n_sims),
         "front_size": report["front_size"],
@@ -162,6 +205,11 @@ def _round_entry(r: int, n_sims: int, report: dict, hv_oracle: float | None) -> 
         "hypervolume_method": report["hypervolume_method"],
         "hv_ratio_to_oracle": _ratio(report["hypervolume"], hv_oracle),
     }
+    if archive is not None:
+        entry["archive_hypervolume"] = archive["hypervolume"]
+        entry["archive_hypervolume_se"] = archive["hypervolume_se"]
+        entry["hv_ratio_to_oracle"] = _ratio(archive["hypervolume"], hv_oracle)
+    return entry
 
 
 def optimise_and_resimulate(
@@ -175,15 +223,18 @@ def optimise_and_resimulate(
     initial: np.ndarray | None = None,
     n_candidates: int | None = None,
     criterion: str = "diverse",
+    span: np.ndarray | None = None,
 ) -> StudyResult:
     """One round: search ``problem`` (from ``initial`` if given), re-simulate the front (at most
     ``n_candidates`` of it, chosen by :func:`select_candidates`), tabulate and report. With the defaults
-    this is the study's one-shot protocol. ``report["n_simulations"]`` counts this round's simulations;
+    this is the study's one-shot protocol. ``span``: the objective scales the candidates are chosen in
+    (the search's own, :func:`search_normalisation`; default ``hv.norm.span``).
+    ``report["n_simulations"]`` counts this round's simulations;
     ``runtimes["responses"]`` holds every simulated row (stalled ones too: the infill loop learns from them)."""
     t0 = time.perf_counter()
     found = optimise(problem, algo, settings, progress, initial=initial)
     k = len(found) if n_candidates is None else int(n_candidates)
-    candidates = _subset(found, select_candidates(found, k, criterion, hv.norm.span))
+    candidates = _subset(found, select_candidates(found, k, criterion, hv.norm.span if span is None else span))
     t1 = time.perf_counter()
     front, table, sim, n_stalled = _simulate_front(candidates, simulate, problem)
     resim_s = time.perf_counter() - t1
@@ -193,16 +244,22 @@ def optimise_and_resimulate(
     return StudyResult(front, table, report, times, candidates.X, sim, found.population)
 
 
-def archive_front(tables: list[pd.DataFrame], max_size: int, hv: HvSettings) -> pd.DataFrame:
+#: Monte Carlo samples of the hypervolume-greedy thinning of a front (:func:`archive_front`).
+SUBSET_SAMPLES = 100_000
+
+
+def archive_front(tables: list[pd.DataFrame], max_size: int | None, hv: HvSettings) -> pd.DataFrame:
     """The source's front after a round: of every design simulated so far in this run, those that pass
     the screen (``hv.screen``; all when None) and that no other such design dominates (simulated
-    objectives) -- an SAEA returns the best of what it truly evaluated, not only its last batch. A
+    objectives) -- a source returns the best of what it truly evaluated, not only its last batch. A
     design simulated in several rounds appears once (its latest row).
 
-    In 11 objectives almost every design is non-dominated, so the front is thinned to ``max_size``
-    designs (the population size: as many as the oracle's front holds, so hypervolumes compare like with
-    like) by farthest-point sampling on the simulated objectives normalised by ``hv.norm``, starting
-    from the design nearest the ideal point."""
+    In 11 objectives almost every design is non-dominated, so the front users see is thinned to
+    ``max_size`` designs (the population size, the same for every source; None: not thinned) by greedy
+    hypervolume selection (:func:`hevlib.indicators.hv_greedy_subset` on ``hv.norm`` up to
+    ``hv.reference``, ``SUBSET_SAMPLES`` samples seeded by ``hv.seed``): each next design is the one that
+    adds the most dominated volume, so the thinned front keeps as much of the archive's hypervolume as
+    a greedy choice can (farthest-point thinning, used before, lost more than a random subset does)."""
     pool = pd.concat(tables, ignore_index=True).drop_duplicates(subset=list(DESIGN_VARS), keep="last")
     F = objective_matrix(pool, OBJECTIVES, what="simulated candidates")
     usable = np.all(np.isfinite(F), axis=1)
@@ -211,12 +268,25 @@ def archive_front(tables: list[pd.DataFrame], max_size: int, hv: HvSettings) -> 
     keep = np.zeros(len(pool), dtype=bool)
     keep[usable] = nondominated_mask(F[usable])
     front = pool[keep].reset_index(drop=True)
-    if len(front) > max_size:
+    if max_size is not None and len(front) > max_size:
         Fn = hv.norm(objective_matrix(front, OBJECTIVES))
-        Fn = Fn - Fn.min(axis=0)
-        idx = np.sort(pick_diverse(Fn, max_size, start=int(np.argmin(np.linalg.norm(Fn, axis=1)))))
+        idx = hv_greedy_subset(Fn, max_size, hv.reference, n_samples=SUBSET_SAMPLES, seed=hv.seed)
         front = front.iloc[idx].reset_index(drop=True)
     return front.assign(nondominated_sim=True)
+
+
+def search_normalisation(Y: np.ndarray, speed_dev_max: float | None) -> Normalisation:
+    """The scales a search chooses its candidates in: ideal and nadir (minimisation form) of its own
+    training designs (the DOE and what it simulated) that follow the sizing cycle well enough
+    (``speed_dev <= speed_dev_max``; all of them while fewer than two do). Never the judged normalisation:
+    that one is built from the held-out set, which no search may see."""
+    F = to_minimisation(np.asarray(Y, dtype=float))
+    finite = np.all(np.isfinite(F), axis=1)
+    use = finite
+    if speed_dev_max is not None:
+        follow = finite & (np.asarray(Y)[:, OBJECTIVES.index("speed_dev")] <= speed_dev_max)
+        use = follow if np.count_nonzero(follow) >= 2 else finite
+    return Normalisation.from_points(F[use])
 
 
 def surrogate_assisted(
@@ -231,8 +301,11 @@ def surrogate_assisted(
     hv: HvSettings,
     hv_oracle: float | None = None,
     progress: Callable[[int, int], None] | None = None,
+    max_simulations: int | None = None,
 ) -> StudyResult:
     """Rounds 0..``infill.rounds`` of fit -> search -> re-simulate candidates -> add to training data.
+    With ``max_simulations``, stops after the round that reaches that many simulations (DOE included),
+    or after a round that found nothing new to simulate (the benchmark's budgets).
 
     ``fit(X, Y)`` returns a fitted surrogate (only ever on the DOE and the designs this run simulated:
     never the held-out set); ``make_problem(model)`` the problem on it. Returns the last round's front,
@@ -240,11 +313,13 @@ def surrogate_assisted(
     included).
     """
     X_train, Y_train = np.asarray(X_doe, dtype=float), np.asarray(Y_doe, dtype=float)
+    log = simulate if isinstance(simulate, SimulationLog) else None  # its archive is what the source is judged on
     n_sims, n_stalled = len(X_train), 0
     population, tables, entries, times, res, archive = None, [], [], [], None, []
     for r in range(infill.rounds + 1):
         t0 = time.perf_counter()
         problem = make_problem(fit(X_train, Y_train))
+        span = search_normalisation(Y_train, getattr(problem, "speed_dev_max", None)).span
         resume = r > 0 and algo in RESUMABLE
         round_settings = settings.model_copy(update={"n_gen": infill.n_gen}) if resume else settings
         res = optimise_and_resimulate(
@@ -257,6 +332,7 @@ def surrogate_assisted(
             initial=population if resume else None,
             n_candidates=infill.designs_per_round,
             criterion=infill.criterion,
+            span=span,
         )
         population = res.population
         n_sims += res.report["n_simulations"]
@@ -268,15 +344,19 @@ def surrogate_assisted(
         front_r = archive_front(archive, max(settings.pop_size, len(res.population)), hv)
         report_r = front_report(res.front, front_r, hv, settings=round_settings)
         tables.append(front_r.assign(**{ROUND: r})[[ROUND, *front_r.columns]])
-        entries.append(_round_entry(r, n_sims, report_r, hv_oracle))
+        judged = archive_hypervolume(log, hv) if log is not None else None
+        entries.append(_round_entry(r, n_sims, report_r, hv_oracle, judged))
         times.append({"round": r, "runtime_s": time.perf_counter() - t0, "n_simulations": n_sims})
+        if max_simulations is not None and (n_sims >= max_simulations or res.report["n_simulations"] == 0):
+            break
     report = report_r
     report.update(
         settings={**settings.model_dump(), **res.front.settings},
         n_simulations=int(n_sims),
         n_doe=int(len(X_doe)),
         n_stalled_dropped=n_stalled,
-        hv_ratio_to_oracle=_ratio(report["hypervolume"], hv_oracle),
+        hv_ratio_to_oracle=entries[-1]["hv_ratio_to_oracle"],
+        archive=judged,
         rounds=entries,
         infill=infill.model_dump(),
     )
@@ -287,10 +367,14 @@ def surrogate_assisted(
 
 __all__ = [
     "ROUND",
+    "SUBSET_SAMPLES",
     "archive_front",
+    "archive_hypervolume",
+    "archive_table",
     "StudyResult",
     "optimise_and_resimulate",
     "oracle",
+    "search_normalisation",
     "select_candidates",
     "surrogate_assisted",
 ]

@@ -118,6 +118,18 @@ def _violation(G: np.ndarray) -> np.ndarray:
     return np.maximum(G, 0.0).sum(axis=1) if G.shape[1] else np.zeros(len(G))
 
 
+def bounded_replacement(
+    cand: np.ndarray, g_new: np.ndarray, g_old: np.ndarray, cv_new: float, cv_old: np.ndarray, n_replace: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The slots one offspring takes: of the candidate slots ``cand`` (already in random order), those
+    where it is better -- a lower aggregate ``g_new < g_old`` when both are feasible, else a lower
+    constraint violation -- at most ``n_replace`` of them (Li and Zhang 2009's bound, which keeps one
+    good offspring from filling a whole neighbourhood with copies of itself); their new aggregates."""
+    both = (cv_new <= 0) & (cv_old <= 0)
+    better = np.where(both, g_new < g_old, cv_new < cv_old)
+    return cand[better][:n_replace], g_new[better][:n_replace]
+
+
 def moead_bounded(
     problem,
     ref_dirs: np.ndarray,
@@ -189,15 +201,13 @@ def moead_bounded(
         for i in order:  # bounded replacement, subproblems in random order
             cand = rng.permutation(B[i] if local[i] else everyone)
             gc = aggregate(np.broadcast_to(FY_n[i], (len(cand), m)), W[cand], decomposition, theta)
-            both = (CVY[i] <= 0) & (CV[cand] <= 0)
-            better = np.where(both, gc < g[cand], CVY[i] < CV[cand])
-            hit = cand[better][:n_replace]
+            hit, g_hit = bounded_replacement(cand, gc, g[cand], CVY[i], CV[cand], n_replace)
             if len(hit):
                 X[hit], F[hit], G[hit], CV[hit] = Y[i], FY[i], GY[i], CVY[i]
-                g[hit] = gc[better][:n_replace]
+                g[hit] = g_hit
         if progress is not None:
             progress(gen, n_gen)
     return X, n_eval
 
 
-__all__ = ["DECOMPOSITIONS", "aggregate", "moead_bounded", "polynomial_mutation", "sbx"]
+__all__ = ["DECOMPOSITIONS", "aggregate", "bounded_replacement", "moead_bounded", "polynomial_mutation", "sbx"]

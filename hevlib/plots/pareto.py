@@ -119,8 +119,8 @@ __all__ = ["TRADEOFF_PAIRS", "tradeoffs_figure", "distributions_figure", "tradeo
 
 
 def infill_figure(rounds: dict[str, list[dict]]) -> plt.Figure:
-    """Hypervolume ratio to the oracle against simulations used, one line per surrogate-assisted source
-    (one marker per round), the oracle as the line at 1."""
+    """Archive hypervolume ratio to the oracle's archive against simulations used, one line per
+    surrogate-assisted source (one marker per round), the oracle as the line at 1."""
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for name, entries in rounds.items():
         pts = [
@@ -132,7 +132,7 @@ def infill_figure(rounds: dict[str, list[dict]]) -> plt.Figure:
     ax.axhline(1.0, color="k", linestyle="--", label="oracle (simulator in the loop)")
     ax.set_xscale("log")
     ax.set_xlabel("simulations used (DOE included)")
-    ax.set_ylabel("hypervolume / oracle's")
+    ax.set_ylabel("archive hypervolume / oracle's archive")
     ax.set_title("Surrogate-assisted search with infill against the oracle")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)

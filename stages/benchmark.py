@@ -1,0 +1,127 @@
+"""``hev benchmark-run SOURCE`` and ``hev benchmark-report``: the equal-budget, many-seed benchmark of
+every source (its own pipeline, ``benchmarks/surrogate/dvc.yaml``; not part of the default ``dvc repro``).
+
+Each run is written as soon as it ends (``data/benchmark/runs/<source>/run_<k>.parquet``) and a run
+already on disk with the same settings is not run again, so an interrupted benchmark resumes where it
+stopped (``--fresh`` runs everything again)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import typer
+
+from stages.cli import app
+from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_setup, stage
+from stages.doe import DOE
+from stages.heldout import HELDOUT
+
+RUNS_DIR = Path("data/benchmark/runs")
+REPORT_DIR = Path("reports/benchmark")
+
+
+def _settings_fingerprint(cfg, source: str) -> str:
+    """What a stored run depends on besides the code: the simulator, the study's optimiser and surrogate
+    settings, the screen, and this source's benchmark settings."""
+    from hevlib.doe import simulation_fingerprint
+
+    blob = json.dumps(
+        {
+            "sim": simulation_fingerprint(cfg),
+            **cfg.model_dump(mode="json", include={"design_space", "surrogate", "optimise", "screen", "doe"}),
+            "benchmark": cfg.benchmark.model_dump(mode="json", exclude={"sources", "seeds", "oracle_seeds"}),
+            "source": source,
+        },
+        sort_keys=True,
+    )
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def run_path(source: str, run: int, runs_dir: Path = RUNS_DIR) -> Path:
+    return Path(runs_dir) / source / f"run_{run}.parquet"
+
+
+@app.command("benchmark-run")
+@stage
+def benchmark_run_stage(
+    source: str = typer.Argument(..., help="nsga3, moead, moga, parego, nsga3_direct, moead_direct, lhs or oracle"),
+    params: str = PARAMS_OPTION,
+    fresh: bool = typer.Option(False, "--fresh", help="run every seed again, even those already on disk"),
+    runs_dir: Path = typer.Option(RUNS_DIR, "--runs-dir", help="where the runs are written"),
+) -> None:
+    """Run SOURCE's benchmark seeds; write data/benchmark/runs/SOURCE/run_<k>.parquet (every simulation)."""
+    import time
+
+    import pyarrow.parquet as pq
+
+    from hevlib.benchmark.runs import RUN_SCHEMA, RunContext, n_runs, run_seed, run_source
+    from hevlib.design import DESIGN_VARS, RESPONSES
+    from hevlib.io import read_table, write_parquet
+    from hevlib.params import BENCHMARK_SOURCES
+    from stages.optimise import _problem_factory
+
+    cfg = params_from(params)
+    if source not in BENCHMARK_SOURCES:
+        raise ValueError(f"benchmark-run: unknown source {source!r} (use one of {', '.join(BENCHMARK_SOURCES)})")
+    if cfg.optimise is None:
+        raise ValueError("params.yaml: optimise: group missing (the benchmark runs the study's optimisers)")
+    fingerprint = _settings_fingerprint(cfg, source)
+    todo = []
+    for k in range(n_runs(cfg, source)):
+        path = run_path(source, k, runs_dir)
+        if not fresh and path.exists():
+            meta = pq.read_schema(path).metadata or {}
+            if meta.get(b"hev.benchmark_fingerprint", b"").decode() == fingerprint:
+                continue
+        todo.append(k)
+    if not todo:
+        typer.echo(f"benchmark-run {source}: all {n_runs(cfg, source)} runs on disk are current")
+        return
+    sim, cycle = sizing_setup(cfg)
+    doe = read_table(DOE)
+    X_doe = doe[list(DESIGN_VARS)].to_numpy(dtype=float)
+    R_doe = doe[list(RESPONSES)]
+
+    def simulate(X):
+        return sim.run(X, cycle, vehicle="hybrid", batch_size=cfg.doe.batch_size)
+
+    for k in todo:
+        t0 = time.perf_counter()
+        with progress_callback(f"benchmark {source}: run {k + 1}/{n_runs(cfg, source)}") as cb:
+            ctx = RunContext(cfg, simulate, _problem_factory(cfg, sim), X_doe, R_doe, cb)
+            table = run_source(ctx, source, k)
+        wall = time.perf_counter() - t0
+        write_parquet(
+            run_path(source, k, runs_dir),
+            table,
+            RUN_SCHEMA,
+            metadata={
+                "hev.benchmark_fingerprint": fingerprint,
+                "hev.source": source,
+                "hev.run": k,
+                "hev.seed": run_seed(cfg.benchmark.seed, source, k),
+                "hev.wall_s": f"{wall:.1f}",
+                "hev.cycle": cycle.name,
+            },
+        )
+        out = run_path(source, k, runs_dir)
+        typer.echo(f"benchmark-run {source}: run {k} ({table.num_rows} simulations) in {wall:.0f} s -> {out}")
+
+
+@app.command("benchmark-report")
+@stage
+def benchmark_report_stage(
+    params: str = PARAMS_OPTION,
+    runs_dir: Path = typer.Option(RUNS_DIR, "--runs-dir", help="where the runs are"),
+    out_dir: Path = typer.Option(REPORT_DIR, "--out", help="where the report goes"),
+) -> None:
+    """Score every run on one judged object and normalisation; write reports/benchmark/summary.json,
+    curves.csv, runs.csv and anytime.png."""
+    from hevlib.benchmark.report import benchmark_report
+
+    cfg = params_from(params)
+    with progress_callback("benchmark: scoring runs") as cb:
+        out = benchmark_report(cfg, runs_dir, DOE, HELDOUT, out_dir, progress=cb)
+    typer.echo(out)

@@ -1,0 +1,244 @@
+"""Issue 24: the equal-budget benchmark -- its indicators (common-sample hypervolume, greedy hypervolume
+subsets, IGD+), statistics (Mann-Whitney, Holm, A12), the Gaussian processes and ParEGO, runs that
+record every simulation, and scoring on one judged object. Stand-in models, small budgets."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_infill import SCREEN, _designs, _hv, _make_problem
+from test_optimise import SPACE, stand_in_simulate
+
+from hevlib.benchmark.runs import RUN_SCHEMA, RunContext, run_seed, run_source
+from hevlib.benchmark.scoring import (
+    a12,
+    budget_table,
+    comparisons,
+    holm,
+    judged_run,
+    mann_whitney,
+    prefix,
+    score_runs,
+)
+from hevlib.design import OBJECTIVES, RESPONSES
+from hevlib.indicators import CommonSamples, Normalisation, hv_greedy_subset, hypervolume_exact, igd_plus
+from hevlib.optimise.archive import SimulationLog
+from hevlib.optimise.parego import ParegoSettings, choose_batch, parego
+from hevlib.params import load_params
+from hevlib.pareto import pick_diverse, to_minimisation
+from hevlib.surrogates.gp import GaussianProcesses
+
+
+# ----------------------------------------------------------------------------------- statistics
+def test_holm_a12_and_mann_whitney_match_hand_computed_values():
+    np.testing.assert_allclose(holm([0.01, 0.04, 0.03]), [0.03, 0.06, 0.06])
+    np.testing.assert_allclose(holm([0.5, 0.001]), [0.5, 0.002])
+    assert a12([3, 4, 5], [1, 2, 3]) == pytest.approx((9 - 0.5) / 9)
+    assert a12([1, 1], [1, 1]) == 0.5
+    # perfect separation of 7 against 7: the exact two-sided p is 2 / C(14, 7)
+    assert mann_whitney(np.arange(7) + 10.0, np.arange(7.0)) == pytest.approx(2 / 3432)
+    assert mann_whitney([1.0, 2, 3], [1.0, 2, 3]) == pytest.approx(1.0)
+
+
+# ----------------------------------------------------------------------------------- indicators
+def test_common_samples_estimate_the_exact_hypervolume_and_share_their_noise():
+    rng = np.random.default_rng(0)
+    F = rng.random((30, 4))
+    F = F / np.linalg.norm(F, axis=1, keepdims=True)
+    samples = CommonSamples.draw(F.min(axis=0) - 0.01, 1.1, 200_000, seed=3)
+    value, se = samples.of(F)
+    exact = hypervolume_exact(F, 1.1)
+    assert abs(value - exact) < 4 * se and se < 0.01 * exact
+    sub, _ = samples.of(F[:15])
+    assert sub <= value  # the same samples: a subset never scores more
+    with pytest.raises(ValueError, match="below the samples' box"):
+        samples.of(F - 0.5)
+
+
+def test_greedy_hypervolume_subset_keeps_more_than_farthest_point_or_random():
+    rng = np.random.default_rng(1)
+    F = rng.random((400, 6))
+    F = F / np.linalg.norm(F, axis=1, keepdims=True)
+    k = 25
+    greedy = hv_greedy_subset(F, k, 1.1, n_samples=50_000, seed=2)
+    assert len(greedy) == len(set(greedy)) == k
+    subsets = {"greedy": greedy, "fps": pick_diverse(F, k), "random": rng.choice(400, k, replace=False)}
+    exact = {name: hypervolume_exact(F[idx], 1.1) for name, idx in subsets.items()}
+    assert exact["greedy"] > exact["fps"] and exact["greedy"] > exact["random"]
+    np.testing.assert_array_equal(hv_greedy_subset(F[:10], 20, 1.1, n_samples=100, seed=0), np.arange(10))
+    outside = np.vstack([F[:5], np.full((3, 6), 2.0)])  # rows beyond the reference come last
+    assert set(hv_greedy_subset(outside, 5, 1.1, n_samples=10_000, seed=0)) == set(range(5))
+
+
+def test_igd_plus_counts_only_where_a_front_is_worse():
+    R = np.array([[0.0, 1.0], [1.0, 0.0]])
+    assert igd_plus(R, R) == 0.0
+    assert igd_plus(np.array([[-1.0, -1.0]]), R) == 0.0  # dominates every reference point
+    assert igd_plus(np.array([[0.5, 1.0]]), R) == pytest.approx((0.5 + 1.0) / 2)
+
+
+# ----------------------------------------------------------------------------------- models
+def test_gaussian_processes_fit_smooth_objectives_and_know_where_they_have_no_data():
+    X = _designs(80, 3)
+    Y = stand_in_simulate(X)[list(OBJECTIVES)].to_numpy()
+    gp = GaussianProcesses(SPACE, ["fc"], max_fit_rows=60, seed=0).fit(X, Y)
+    X_test = _designs(60, 4)
+    Y_test = stand_in_simulate(X_test)[list(OBJECTIVES)].to_numpy()
+    mean, std = gp.predict(X_test, return_std=True)
+    r2 = 1 - ((mean - Y_test) ** 2).sum(0) / ((Y_test - Y_test.mean(0)) ** 2).sum(0)
+    assert np.median(r2) > 0.8
+    _, std_train = gp.predict(X[:20], return_std=True)
+    assert np.all(np.median(std_train, axis=0) < np.median(std, axis=0))  # less unsure where it was trained
+    draws = gp.sample(X_test[:5], 64, np.random.default_rng(0))
+    assert draws.shape == (64, 5, len(OBJECTIVES)) and np.all(np.isfinite(draws))
+    np.testing.assert_allclose(draws.std(axis=0)[:, 0], std[:5, 0], rtol=0.35)
+
+
+def test_parego_picks_the_expected_improvement_and_never_twice():
+    S, m = 16, 5
+    draws = np.ones((S, m, 2))
+    draws[:, 3] = 0.1  # candidate 3 improves on the best found (0.5, 0.5) for every weight
+    feasible = np.ones((S, m), dtype=bool)
+    weights = np.array([[0.5, 0.5], [0.9, 0.1]])
+    pick = choose_batch(draws, feasible, np.array([[0.5, 0.5]]), weights, 0.05)
+    assert pick[0] == 3 and len(set(pick)) == 2
+    feasible[:, 3] = False  # improvement only counts where the speed rule holds
+    assert choose_batch(draws, feasible, np.array([[0.5, 0.5]]), weights[:1], 0.05)[0] != 3
+
+
+def test_parego_spends_exactly_its_budget_inside_the_exact_constraints():
+    X_doe = _designs(20, 5)
+    log = SimulationLog(stand_in_simulate)
+    log.record(X_doe, stand_in_simulate(X_doe))
+
+    def fit(X, Y):
+        return GaussianProcesses(SPACE, max_fit_rows=40, max_iter=15).fit(X, Y)
+
+    settings = ParegoSettings(batch=8, pool_random=300, pool_local=200, n_samples=8, seed=1)
+    X, R = parego(_make_problem, fit, X_doe, stand_in_simulate(X_doe), log, SCREEN, 44, settings)
+    assert len(X) == len(R) == len(log) == 44
+    new = X[20:]
+    assert len(np.unique(new, axis=0)) == len(new)
+    assert np.all(_make_problem(None).constraint(new, np.zeros((len(new), len(OBJECTIVES))))[:, 0] <= 0)
+
+
+# ----------------------------------------------------------------------------------- runs
+@pytest.fixture(scope="module")
+def tiny_cfg():
+    cfg = load_params("params.yaml")
+    o = cfg.optimise
+    small = {
+        a: s.model_copy(update={"pop_size": 24, "n_gen": 6, "n_neighbors": 6, "n_weights": 12, "norm_samples": 100})
+        for a, s in o.algorithms.items()
+    }
+    optimise = o.model_copy(
+        update={
+            "algorithms": small,
+            "oracle": o.oracle.model_copy(update={"pop_size": 20, "n_gen": 3}),
+            "infill": o.infill.model_copy(update={"designs_per_round": 15, "n_gen": 3}),
+        }
+    )
+    bench = cfg.benchmark.model_copy(
+        update={
+            "budget": 70,
+            "direct_budget": 90,
+            "seeds": 2,
+            "oracle_seeds": 1,
+            "nsga3_direct": cfg.benchmark.nsga3_direct.model_copy(update={"pop_size": 20}),
+            "moead_direct": cfg.benchmark.moead_direct.model_copy(update={"pop_size": 20, "n_neighbors": 5}),
+            "parego": cfg.benchmark.parego.model_copy(update={"batch": 10, "pool_random": 200, "pool_local": 100}),
+        }
+    )
+    return cfg.model_copy(update={"optimise": optimise, "benchmark": bench, "screen": SCREEN})
+
+
+def _context(cfg) -> RunContext:
+    X_doe = _designs(27, 6)
+    return RunContext(cfg, stand_in_simulate, _make_problem, X_doe, stand_in_simulate(X_doe))
+
+
+@pytest.mark.parametrize("source", ["lhs", "nsga3_direct", "moead", "parego", "oracle"])
+def test_a_run_records_every_simulation_in_order(tiny_cfg, source):
+    ctx = _context(tiny_cfg)
+    table = run_source(ctx, source, 0)
+    assert table.schema.equals(RUN_SCHEMA)
+    df = table.to_pandas()
+    np.testing.assert_array_equal(df["sim_index"], np.arange(1, len(df) + 1))
+    if source in ("moead", "parego"):  # the DOE counts, first
+        np.testing.assert_array_equal(df[["p_eng_kw", "p_mot_kw"]].to_numpy()[:27], ctx.X_doe[:, :2])
+    if source in ("lhs", "parego"):
+        assert len(df) == tiny_cfg.benchmark.budget
+    if source == "moead":
+        assert len(df) >= tiny_cfg.benchmark.budget
+    X = df[["p_eng_kw", "p_mot_kw", "p_gen_kw", "i0", "n_bat", "n_r", "n_s"]].to_numpy()
+    truth = stand_in_simulate(X)
+    for k in OBJECTIVES:  # what is recorded is what the simulator said about that design
+        np.testing.assert_allclose(df[f"sim_{k}"], truth[k])
+    assert df["final_population"].any()
+    again = run_source(_context(tiny_cfg), source, 0).to_pandas()
+    pd.testing.assert_frame_equal(df, again)  # seeded
+    assert run_seed(1, source, 0) != run_seed(1, source, 1)
+
+
+def test_scoring_judges_every_run_on_the_same_object(tiny_cfg):
+    cfg = tiny_cfg
+    runs = []
+    for source in ("lhs", "nsga3_direct", "moead", "parego"):
+        for k in range(2):
+            runs.append(judged_run(source, k, run_source(_context(cfg), source, k).to_pandas(), SCREEN))
+    norm = _hv().norm
+    lo = np.minimum.reduce([norm(r.F).min(axis=0) for r in runs]) - 1e-9
+    samples = CommonSamples.draw(np.minimum(lo, 0.0), 1.1, 20_000, seed=1)
+    budgets = {r.source: [30, 60] for r in runs}
+    scores = score_runs(runs, norm, samples, budgets, None)
+    df = scores.per_budget
+    for (_s, _k), g in df.groupby(["source", "run"]):
+        hv = g.sort_values("budget")["hypervolume"].to_numpy()
+        assert np.all(np.diff(hv) >= 0)  # the archive only grows
+    r = runs[0]
+    at30 = df[(df.source == r.source) & (df.run == r.run) & (df.budget == 30)]
+    assert at30["hypervolume"].item() == samples.of(norm(r.F[prefix(r, 30)]))[0]
+    table = budget_table(scores)
+    assert set(table) == {"lhs", "nsga3_direct", "moead", "parego"} and table["lhs"]["30"]["n"] == 2
+    tests = comparisons(scores, [30, 60], 0.05, 0.71)
+    medians = {s: table[s]["30"]["median"] for s in ("lhs", "nsga3_direct")}
+    assert tests["30"][0]["direct"] == max(medians, key=medians.get)  # the best direct search at that budget
+    for rows in tests.values():
+        best = max(
+            ("lhs", "nsga3_direct"), key=lambda s: np.median(df[(df.source == s) & (df.budget == 30)]["hypervolume"])
+        )
+        assert {t["saea"] for t in rows} == {"moead", "parego"}
+        assert rows[0]["direct"] in ("lhs", "nsga3_direct") and best in ("lhs", "nsga3_direct")
+        assert all(t["p_holm"] >= t["p"] for t in rows)
+
+
+def test_the_judged_normalisation_never_reaches_a_search():
+    """A search's candidate scales come from its own training data (``search_normalisation``), so a
+    judged normalisation built from the held-out set cannot steer it: two very different judged
+    normalisations give the same searched designs."""
+    from test_infill import CountingFit
+    from test_optimise import SMALL
+
+    from hevlib.optimise import surrogate_assisted
+    from hevlib.params import InfillParams
+
+    X_doe = _designs(30, 1)
+    Y_doe = stand_in_simulate(X_doe)[list(OBJECTIVES)].to_numpy()
+    infill = InfillParams(rounds=1, designs_per_round=10, n_gen=5, criterion="diverse")
+    hv = _hv()
+    span = hv.norm.span * np.linspace(1.0, 30.0, len(OBJECTIVES))  # a very different weighting
+    other = type(hv)(Normalisation(hv.norm.ideal - span, hv.norm.nadir + span), 1.1, 20_000, 7, SCREEN)
+    designs = []
+    for settings in (hv, other):
+        fit = CountingFit()
+        surrogate_assisted(
+            "nsga3", SMALL["nsga3"], infill, _make_problem, fit, X_doe, Y_doe, stand_in_simulate, settings
+        )
+        designs.append(np.vstack(fit.seen))
+    np.testing.assert_array_equal(designs[0], designs[1])
+
+
+def test_responses_cover_the_run_schema():
+    assert [f.name for f in RUN_SCHEMA][1 + 7 : 1 + 7 + len(RESPONSES)] == [f"sim_{k}" for k in RESPONSES]
+    assert to_minimisation(np.ones(len(OBJECTIVES))).shape == (len(OBJECTIVES),)
