@@ -451,3 +451,20 @@ def test_nsga3_tournament_draws_every_tie_from_the_algorithms_seeded_generator()
     assert set(ties) == {2, 3}  # equal violation: a coin toss, both sides win sometimes
     assert list(picks[0][40:44]) == [4, 4, 0, 0]  # the smaller violation wins; a feasible parent beats any
     assert picks[0][44] in (0, 1)
+
+
+def test_moead_replacement_is_bounded():
+    """One offspring better than every slot of its neighbourhood takes at most ``n_replace`` of them (the
+    bound that keeps MOEA/D from collapsing in many objectives), the first ones of the shuffled pool."""
+    from hevlib.optimise.moead import bounded_replacement
+
+    cand = np.array([7, 3, 9, 1, 4])
+    g_old = np.full(5, 2.0)
+    for n_replace in (1, 2, 5):
+        hit, g_hit = bounded_replacement(cand, np.full(5, 1.0), g_old, 0.0, np.zeros(5), n_replace)
+        np.testing.assert_array_equal(hit, cand[:n_replace])
+        np.testing.assert_array_equal(g_hit, np.ones(n_replace))
+    hit, _ = bounded_replacement(cand, np.array([3.0, 1.0, 3.0, 1.0, 1.0]), g_old, 0.0, np.zeros(5), 2)
+    np.testing.assert_array_equal(hit, [3, 1])  # only where it is better
+    hit, _ = bounded_replacement(cand, np.full(5, 9.0), g_old, 0.5, np.array([1.0, 0.0, 2.0, 0.0, 0.0]), 2)
+    np.testing.assert_array_equal(hit, [7, 9])  # infeasible slots: the smaller violation wins
