@@ -10,7 +10,8 @@ The steps of SPEC section 9, each a pure function over tables or arrays:
    ones are the same for every source: the simulator is deterministic).
 2. :func:`nondominated_mask` on the simulated objectives in minimisation form (``Y * sense``);
    designs with a non-finite simulated objective are excluded first and counted.
-3. Screening: each rule of :func:`screening_rules` is a named function returning a pass mask. Every
+3. Screening: each rule of :func:`hevlib.screen.screening_rules` (declared once there, as a polars
+   expression here, a numpy mask or a pymoo constraint elsewhere) gives a pass mask. Every
    rule is evaluated and reported (how many non-dominated designs it would remove on its own, and how
    many it removed in sequence); a rule switched off in ``params.screen`` removes nothing.
 4. Ranking (:func:`ideal_distance`): objectives in minimisation form are min-max normalised over the
@@ -33,9 +34,10 @@ import pandas as pd
 import polars as pl
 import pyarrow as pa
 
-from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, SENSE, gear_set_buildable
+from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, SENSE
 from hevlib.indicators import Hypervolume, Normalisation, hypervolume
 from hevlib.params import OptimiseParams
+from hevlib.screen import ScreenRule, screening_rules
 from hevlib.tables import Table, columns, lazy, matrix, n_rows
 
 SIM, PRED = "sim_", "pred_"
@@ -151,90 +153,9 @@ def algo_names(algo: str) -> list[str]:
 
 
 # ------------------------------------------------------------------------------------ screening
-def rule_gen_below_motor() -> pl.Expr:
-    """Generator peak power strictly below motor peak power (``p_gen_kw < p_mot_kw``)."""
-    return pl.col("p_gen_kw") < pl.col("p_mot_kw")
-
-
-def rule_speed_dev(max_share: float) -> pl.Expr:
-    """Simulated share of the sizing cycle off the trace within ``max_share`` (NaN fails)."""
-    return pl.col(f"{SIM}speed_dev").fill_nan(None) <= max_share
-
-
-def rule_not_stalled() -> pl.Expr:
-    """The re-simulated design did not stall on the sizing cycle (a failed design never passes)."""
-    return ~pl.col(f"{SIM}stalled").cast(pl.Boolean)
-
-
-def rule_mass(max_kg: float) -> pl.Expr:
-    """Simulated test mass within ``max_kg`` (NaN fails)."""
-    return pl.col(f"{SIM}m_veh").fill_nan(None) <= max_kg
-
-
-def rule_buildable_gear_set() -> pl.Expr:
-    """The planetary set can be built (:func:`hevlib.design.gear_set_buildable`)."""
-    return pl.struct("n_r", "n_s").map_batches(
-        lambda s: pl.Series(
-            gear_set_buildable(
-                np.round(s.struct.field("n_r").cast(pl.Float64).to_numpy()).astype(np.int64),
-                np.round(s.struct.field("n_s").cast(pl.Float64).to_numpy()).astype(np.int64),
-            )
-        ),
-        return_dtype=pl.Boolean,
-    )
-
-
 def passing(table: Table, expr: pl.Expr) -> np.ndarray:
     """(n,) bool: where the boolean expression holds on ``table`` (null fails); reads only its columns."""
     return lazy(table).select(expr.fill_null(False).alias("ok")).collect().to_series().to_numpy().astype(bool)
-
-
-@dataclass(frozen=True)
-class ScreenRule:
-    """One screening rule: ``expr`` (a polars expression) is True where a design passes."""
-
-    name: str
-    enabled: bool
-    description: str
-    expr: pl.Expr
-    limit: float | None = None
-
-    def check(self, table: Table) -> np.ndarray:
-        """(n,) bool pass mask on ``table``."""
-        return passing(table, self.expr)
-
-
-def screening_rules(screen) -> list[ScreenRule]:
-    """The rules of ``params.screen`` (:class:`hevlib.params.ScreenParams`), in the order they are applied."""
-    return [
-        ScreenRule("gen_below_motor", bool(screen.gen_below_motor), "p_gen_kw < p_mot_kw", rule_gen_below_motor()),
-        ScreenRule(
-            "not_stalled",
-            True,
-            "not sim_stalled (stood still while the sizing cycle asked to move)",
-            rule_not_stalled(),
-        ),
-        ScreenRule(
-            "speed_dev_max",
-            True,
-            f"sim_speed_dev <= {screen.speed_dev_max:g} (share of the cycle off the trace)",
-            rule_speed_dev(screen.speed_dev_max),
-            float(screen.speed_dev_max),
-        ),
-        ScreenRule(
-            "mass_max",
-            True,
-            f"sim_m_veh <= {screen.mass_max_kg:g} kg",
-            rule_mass(screen.mass_max_kg),
-            float(screen.mass_max_kg),
-        ),
-        ScreenRule(
-            "buildable_gear_set",
-            bool(screen.buildable_gear_set),
-            "planet teeth (n_r-n_s)/2 whole and >= 9, (n_r+n_s) divisible by 4",
-            rule_buildable_gear_set(),
-        ),
-    ]
 
 
 def apply_screening(
@@ -248,7 +169,7 @@ def apply_screening(
     rules are applied in order (``removed_in_sequence``; 0 for a rule that is switched off).
     """
     if rules:
-        ok_all = lazy(table).select([r.expr.fill_null(False).alias(r.name) for r in rules]).collect()
+        ok_all = lazy(table).select([r.expr().fill_null(False).alias(r.name) for r in rules]).collect()
     n = len(ok_all) if rules else n_rows(table)
     cand = np.ones(n, dtype=bool) if candidates is None else np.asarray(candidates, dtype=bool)
     masks, report, alive = {}, {}, cand.copy()
@@ -668,11 +589,6 @@ __all__ = [
     "objective_matrix",
     "merge_fronts",
     "algo_names",
-    "rule_gen_below_motor",
-    "rule_not_stalled",
-    "rule_speed_dev",
-    "rule_mass",
-    "rule_buildable_gear_set",
     "ScreenRule",
     "passing",
     "HvSettings",

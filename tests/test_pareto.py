@@ -25,15 +25,28 @@ from hevlib.pareto import (
     pick_diverse,
     pick_random,
     rank_by,
-    rule_buildable_gear_set,
-    rule_gen_below_motor,
-    rule_mass,
-    rule_speed_dev,
     screening_rules,
     select_designs,
 )
+from hevlib.screen import buildable_gear_set, gen_below_motor, mass_max, not_stalled, speed_dev_max
 
 REPO = Path(__file__).resolve().parents[1]
+
+
+def rule_gen_below_motor():
+    return gen_below_motor().expr()
+
+
+def rule_speed_dev(limit):
+    return speed_dev_max(limit).expr()
+
+
+def rule_mass(limit):
+    return mass_max(limit).expr()
+
+
+def rule_buildable_gear_set():
+    return buildable_gear_set().expr()
 
 
 def synthetic_front(n: int, seed: int, objectives=OBJECTIVES) -> pd.DataFrame:
@@ -160,6 +173,20 @@ def test_each_rule_flags_exactly_its_violators():
     # the same masks on a polars table, lazily, and with a missing value as null rather than NaN
     lf = pl.from_pandas(t).lazy().with_columns(pl.col("sim_speed_dev").fill_nan(None))
     np.testing.assert_array_equal(passing(lf, rule_speed_dev(0.4)), passing(t, rule_speed_dev(0.4)))
+
+
+def test_each_rule_is_one_declaration_in_three_shapes():
+    """The polars expression, the numpy mask and the pymoo constraint of a rule agree on every row
+    (constraint <= 0 exactly where the design passes; NaN fails everywhere)."""
+    t = screening_table()
+    cols = {k.removeprefix("sim_"): t[k].to_numpy(dtype=float) for k in t.columns}
+    for rule in (gen_below_motor(), speed_dev_max(0.4), mass_max(1195.0), not_stalled(), buildable_gear_set()):
+        np.testing.assert_array_equal(passing(t, rule.expr()), rule.mask(cols))
+        if rule.margin is not None:
+            with np.errstate(invalid="ignore"):
+                np.testing.assert_array_equal(rule.constraint(cols) <= 0, rule.mask(cols))
+    stalled = {"stalled": np.array([1.0, 0.0, np.nan])}
+    assert list(not_stalled().mask(stalled)) == [False, True, False]
 
 
 @pytest.mark.parametrize("rule", ["gen_below_motor", "not_stalled", "speed_dev_max", "mass_max", "buildable_gear_set"])

@@ -39,6 +39,7 @@ from hevlib.optimise.report import HvSettings, front_report, runtimes
 from hevlib.optimise.resim import drop_stalled, front_schema, front_table, resimulate
 from hevlib.params import AlgoParams, InfillParams
 from hevlib.pareto import nondominated_mask, objective_matrix, passes_screen, pick_diverse, to_minimisation
+from hevlib.screen import speed_dev_max as speed_dev_rule
 
 ROUND = "round"
 #: Optimisers whose search an infill round resumes from the last population (``infill.n_gen``
@@ -284,7 +285,8 @@ def search_normalisation(Y: np.ndarray, speed_dev_max: float | None) -> Normalis
     finite = np.all(np.isfinite(F), axis=1)
     use = finite
     if speed_dev_max is not None:
-        follow = finite & (np.asarray(Y)[:, OBJECTIVES.index("speed_dev")] <= speed_dev_max)
+        speed = {"speed_dev": np.asarray(Y)[:, OBJECTIVES.index("speed_dev")]}
+        follow = finite & speed_dev_rule(speed_dev_max).mask(speed)
         use = follow if np.count_nonzero(follow) >= 2 else finite
     return Normalisation.from_points(F[use])
 

@@ -34,7 +34,8 @@ import pandas as pd
 from hevlib.design import DESIGN_VARS, OBJECTIVES
 from hevlib.indicators import Normalisation
 from hevlib.optimise.problem import HevProblem, _repaired
-from hevlib.pareto import nondominated_mask, passes_screen, simulated_as_front, to_minimisation
+from hevlib.pareto import nondominated_mask, to_minimisation
+from hevlib.screen import passes
 
 _SPEED_DEV = OBJECTIVES.index("speed_dev")
 
@@ -54,10 +55,9 @@ class ParegoSettings:
 
 def screen_mask(X: np.ndarray, responses: pd.DataFrame, screen) -> np.ndarray:
     """(n,) bool: simulated designs (``X`` and their responses) that pass every enabled screen rule."""
-    table = simulated_as_front(responses.reset_index(drop=True)).assign(
-        **{v: X[:, j] for j, v in enumerate(DESIGN_VARS)}
-    )
-    return passes_screen(table, screen)
+    cols = {v: X[:, j] for j, v in enumerate(DESIGN_VARS)}
+    cols.update({k: responses[k].to_numpy(dtype=float) for k in ("speed_dev", "m_veh", "stalled")})
+    return passes(cols, screen)
 
 
 def own_normalisation(F_min: np.ndarray, passing: np.ndarray) -> Normalisation:

@@ -14,6 +14,7 @@ import pandas as pd
 from pymoo.core.problem import Problem
 from pymoo.core.repair import Repair
 
+from hevlib import screen
 from hevlib.design import (
     DESIGN_VARS,
     INTEGER_MASK,
@@ -34,7 +35,8 @@ class HevProblem(Problem):
     units; ``predict_std`` is used when present); ``mass_kg`` maps ``X`` (n, 7) to the exact test mass
     (n,) (``Simulator.mass_kg``). The whole population is evaluated in one call of each.
 
-    Constraints, all ``G <= 0`` feasible and dimensionless (violations add up on one scale):
+    Constraints, all ``G <= 0`` feasible and dimensionless (violations add up on one scale), each the
+    constraint form of the screen's rule of the same meaning (:mod:`hevlib.screen`):
 
     - always: exact test mass at most ``m_veh_max_kg`` (``m / m_max - 1``);
     - ``speed_dev_max``: the surrogate's predicted speed deviation (share of the sizing cycle off the
@@ -113,18 +115,20 @@ class HevProblem(Problem):
         m = np.asarray(self.mass_kg(X), dtype=float).reshape(-1)
         if m.shape != (len(X),) or not np.all(np.isfinite(m)):
             raise ValueError(f"mass_kg: expected {len(X)} finite masses, got shape {m.shape}")
-        cols = [m / self.m_veh_max_kg - 1.0]
+        cols = [screen.mass_max(self.m_veh_max_kg).constraint({"m_veh": m})]
         if self.speed_dev_max is not None:
             if Y is None:
                 Y = self._checked(self.surrogate.predict(X), len(X), "predict")
-            cols.append(Y[:, OBJECTIVES.index("speed_dev")] / self.speed_dev_max - 1.0)
+            speed = {"speed_dev": Y[:, OBJECTIVES.index("speed_dev")]}
+            cols.append(screen.speed_dev_max(self.speed_dev_max).constraint(speed))
         if "gen_below_motor" in self.constraint_names:
-            cols.append(X[:, DESIGN_VARS.index("p_gen_kw")] / X[:, DESIGN_VARS.index("p_mot_kw")] - 1.0 + 1e-9)
+            powers = {k: X[:, DESIGN_VARS.index(k)] for k in ("p_gen_kw", "p_mot_kw")}
+            cols.append(screen.gen_below_motor().constraint(powers))
         if self.stalled is not None:
             st = np.asarray(self.stalled(X), dtype=bool).reshape(-1)
             if st.shape != (len(X),):
                 raise ValueError(f"stalled: expected {len(X)} flags, got shape {st.shape}")
-            cols.append(np.where(st, 1.0, -1.0))
+            cols.append(screen.not_stalled().constraint({"stalled": st}))
         return np.column_stack(cols)
 
     def _evaluate(self, x, out, *args, **kwargs):

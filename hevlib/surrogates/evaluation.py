@@ -96,7 +96,9 @@ def _numeric_evidence(bnn) -> dict:
 
 def followers(Y: np.ndarray, speed_dev_max: float) -> np.ndarray:
     """(n,) bool: designs whose simulated speed deviation (column of ``Y``, (n, 11)) passes screening."""
-    return np.asarray(Y, dtype=float)[:, I_SPEED_DEV] <= speed_dev_max
+    from hevlib.screen import speed_dev_max as rule
+
+    return rule(speed_dev_max).mask({"speed_dev": np.asarray(Y, dtype=float)[:, I_SPEED_DEV]})
 
 
 def fit_surrogates(

@@ -1,0 +1,165 @@
+"""The screen's rules (SPEC 9), declared once and rendered in the three shapes the code needs:
+
+- :meth:`ScreenRule.mask` -- a numpy pass mask over columns (a mapping name -> array, design variables
+  and responses by their plain names): the surrogates' held-out followers, a search's own scales,
+  ParEGO's screen-passing designs;
+- :meth:`ScreenRule.expr` -- a polars expression over a table (design variables plain, responses with
+  the ``sim_`` prefix): the pareto stage's screening and every judged hypervolume;
+- :meth:`ScreenRule.constraint` -- a pymoo inequality column (``<= 0`` feasible, dimensionless) over the
+  same kind of mapping: :class:`hevlib.optimise.problem.HevProblem` (with the exact mass and the
+  model's speed deviation).
+
+A missing value (NaN or null) never passes. A rule switched off in ``params.screen`` is still evaluated
+and reported (how many designs it would remove) but removes nothing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import polars as pl
+
+from hevlib.design import DESIGN_VARS, gear_set_buildable
+
+Columns = Mapping[str, np.ndarray]
+SIM = "sim_"
+#: Margin that makes "strictly below" a ``<= 0`` constraint.
+STRICT = 1e-9
+
+
+@dataclass(frozen=True)
+class ScreenRule:
+    """One rule: ``passes(cols)`` is True where a design passes; ``margin(cols)`` (if the rule can be a
+    constraint) is its dimensionless ``<= 0`` form."""
+
+    name: str
+    enabled: bool
+    description: str
+    reads: tuple[str, ...]
+    passes: Callable[[Columns], np.ndarray]
+    margin: Callable[[Columns], np.ndarray] | None = None
+    limit: float | None = None
+
+    def mask(self, cols: Columns) -> np.ndarray:
+        """(n,) bool pass mask; NaN fails."""
+        with np.errstate(invalid="ignore"):
+            return np.asarray(self.passes({k: np.asarray(cols[k], dtype=float) for k in self.reads}), dtype=bool)
+
+    def constraint(self, cols: Columns) -> np.ndarray:
+        if self.margin is None:
+            raise ValueError(f"screen rule {self.name}: not a constraint (it is kept by repair)")
+        return np.asarray(self.margin({k: np.asarray(cols[k], dtype=float) for k in self.reads}), dtype=float)
+
+    def expr(self) -> pl.Expr:
+        """Polars expression (bool) over a table whose responses carry the ``sim_`` prefix."""
+        names = [k if k in DESIGN_VARS else f"{SIM}{k}" for k in self.reads]
+        fields = [pl.col(n).cast(pl.Float64).alias(k) for n, k in zip(names, self.reads, strict=True)]
+        return pl.struct(fields).map_batches(
+            lambda s: pl.Series(self.mask({k: s.struct.field(k).to_numpy() for k in self.reads})),
+            return_dtype=pl.Boolean,
+        )
+
+    def check(self, table) -> np.ndarray:
+        """(n,) bool pass mask on a table (``sim_`` responses)."""
+        from hevlib.tables import lazy
+
+        return lazy(table).select(self.expr().fill_null(False).alias("ok")).collect().to_series().to_numpy()
+
+
+def gen_below_motor(enabled: bool = True) -> ScreenRule:
+    return ScreenRule(
+        "gen_below_motor",
+        enabled,
+        "p_gen_kw < p_mot_kw",
+        ("p_gen_kw", "p_mot_kw"),
+        lambda c: c["p_gen_kw"] < c["p_mot_kw"],
+        lambda c: c["p_gen_kw"] / c["p_mot_kw"] - 1.0 + STRICT,
+    )
+
+
+def not_stalled() -> ScreenRule:
+    return ScreenRule(
+        "not_stalled",
+        True,
+        "not sim_stalled (stood still while the sizing cycle asked to move)",
+        ("stalled",),
+        lambda c: c["stalled"] == 0.0,
+        lambda c: np.where(c["stalled"] != 0.0, 1.0, -1.0),
+    )
+
+
+def speed_dev_max(limit: float) -> ScreenRule:
+    return ScreenRule(
+        "speed_dev_max",
+        True,
+        f"sim_speed_dev <= {limit:g} (share of the cycle off the trace)",
+        ("speed_dev",),
+        lambda c: c["speed_dev"] <= limit,
+        lambda c: c["speed_dev"] / limit - 1.0,
+        float(limit),
+    )
+
+
+def mass_max(limit: float) -> ScreenRule:
+    return ScreenRule(
+        "mass_max",
+        True,
+        f"sim_m_veh <= {limit:g} kg",
+        ("m_veh",),
+        lambda c: c["m_veh"] <= limit,
+        lambda c: c["m_veh"] / limit - 1.0,
+        float(limit),
+    )
+
+
+def _buildable(c: Columns) -> np.ndarray:
+    ok = np.isfinite(c["n_r"]) & np.isfinite(c["n_s"])
+    out = np.zeros(len(ok), dtype=bool)
+    out[ok] = gear_set_buildable(np.round(c["n_r"][ok]).astype(np.int64), np.round(c["n_s"][ok]).astype(np.int64))
+    return out
+
+
+def buildable_gear_set(enabled: bool = True) -> ScreenRule:
+    return ScreenRule(
+        "buildable_gear_set",
+        enabled,
+        "planet teeth (n_r-n_s)/2 whole and >= 9, (n_r+n_s) divisible by 4",
+        ("n_r", "n_s"),
+        _buildable,
+    )
+
+
+def screening_rules(screen) -> list[ScreenRule]:
+    """The rules of ``params.screen`` (:class:`hevlib.params.ScreenParams`), in the order they are applied."""
+    return [
+        gen_below_motor(bool(screen.gen_below_motor)),
+        not_stalled(),
+        speed_dev_max(screen.speed_dev_max),
+        mass_max(screen.mass_max_kg),
+        buildable_gear_set(bool(screen.buildable_gear_set)),
+    ]
+
+
+def passes(cols: Columns, screen) -> np.ndarray:
+    """(n,) bool: designs (columns by plain name) that pass every enabled rule of ``params.screen``."""
+    ok = None
+    for rule in screening_rules(screen):
+        if rule.enabled:
+            m = rule.mask(cols)
+            ok = m if ok is None else ok & m
+    return ok
+
+
+__all__ = [
+    "STRICT",
+    "ScreenRule",
+    "buildable_gear_set",
+    "gen_below_motor",
+    "mass_max",
+    "not_stalled",
+    "passes",
+    "screening_rules",
+    "speed_dev_max",
+]
