@@ -2,7 +2,7 @@
 
 - ``summary.json`` -- the contract: ``judged_object``, ``normalisation`` (ideal, nadir, what it was built
   from), ``hv_reference``, ``sources: {source: {n_seeds, budgets: {"<n>": {median, q1, q3}}}}``,
-  ``tests: {"<n>": [{saea, direct, p_holm, a12, ...}]}``; plus the final populations, IGD+, the
+  ``tests: {"<n>": {<saea>: {saea, direct, p_holm, a12, ...}}}``; plus the final populations, IGD+, the
   sensitivity check on a normalisation over every archive, the bar of issue 24 and plain-words findings;
 - ``curves.csv`` -- median and quartiles per source and budget (DVC plots);
 - ``runs.csv`` -- every run's figures at every budget;
@@ -57,7 +57,7 @@ def _bar(tests: dict, budget_stats: dict, ceiling: str, budget: int, share: floa
     key = str(budget)
     oracle_median = budget_stats.get(ceiling, {}).get("end", {}).get("median")
     rows = []
-    for t in tests.get(key, []):
+    for t in tests.get(key, {}).values():
         ratio = t["saea_median"] / oracle_median if oracle_median else None
         rows.append(
             {
@@ -77,7 +77,8 @@ def _bar(tests: dict, budget_stats: dict, ceiling: str, budget: int, share: floa
 
 def _findings(tests: dict, bar: dict, table: dict) -> list[str]:
     out = []
-    for b, rows in tests.items():
+    for b, per in tests.items():
+        rows = list(per.values())
         winners = [r["saea"] for r in rows if r["beats_direct"]]
         best = rows[0]["direct"] if rows else None
         out.append(
