@@ -31,7 +31,7 @@ from pymoo.util.ref_dirs.energy import RieszEnergyReferenceDirectionFactory
 from pymoo.util.reference_direction import UniformReferenceDirectionFactory
 
 from hevlib.indicators import Normalisation
-from hevlib.optimise.moead import moead_bounded
+from hevlib.optimise.moead import MOEADBounded
 from hevlib.optimise.problem import HevProblem, _evaluate_base, _integer_repair, _Reformulated, _repaired
 from hevlib.params import AlgoParams
 from hevlib.pareto import nondominated_mask
@@ -232,7 +232,8 @@ def nsga3(problem: Problem, settings: AlgoParams, progress=None, initial: np.nda
 
 
 def moead(problem: Problem, settings: AlgoParams, progress=None, initial: np.ndarray | None = None) -> Front:
-    """MOEA/D with bounded replacement (:mod:`hevlib.optimise.moead`): one subproblem per individual on
+    """MOEA/D with bounded replacement (:class:`hevlib.optimise.moead.MOEADBounded`, a pymoo ``Algorithm``
+    run by :func:`run` like the others): one subproblem per individual on
     ``pop_size`` Riesz s-energy directions (seeded, so the directions cover the simplex's interior),
     neighbourhoods of ``n_neighbors``, mating and replacement there with probability ``delta``, at most
     ``n_replace`` slots per offspring, Tchebycheff (or PBI) on objectives normalised online, constraints
@@ -244,10 +245,8 @@ def moead(problem: Problem, settings: AlgoParams, progress=None, initial: np.nda
         )
     t0 = time.perf_counter()
     ref = reference_directions(problem.n_obj, n_points=settings.pop_size, seed=settings.seed)
-    X, n_eval = moead_bounded(
-        problem,
+    algorithm = MOEADBounded(
         ref,
-        n_gen=settings.n_gen,
         n_neighbors=settings.n_neighbors,
         delta=settings.delta,
         n_replace=settings.n_replace,
@@ -259,8 +258,11 @@ def moead(problem: Problem, settings: AlgoParams, progress=None, initial: np.nda
         pm_eta=PM_ETA,
         repair=lambda Z: _repaired(problem, Z),
         initial=initial,
-        progress=progress,
     )
+    # pymoo counts the initial population as generation 1: n_gen generations are n_gen + 1 of its iterations
+    step = None if progress is None else (lambda done, total: progress(done - 1, total - 1) if done > 1 else None)
+    res = run(problem, algorithm, settings.n_gen + 1, settings.seed, step)
+    X, n_eval = res.pop.get("X"), res.algorithm.evaluator.n_eval
     return _front(
         problem,
         X,

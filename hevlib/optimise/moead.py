@@ -1,4 +1,5 @@
-"""MOEA/D with bounded replacement (Li & Zhang 2009, MOEA/D-DE's diversity rules) in numpy.
+"""MOEA/D with bounded replacement (Li & Zhang 2009, MOEA/D-DE's diversity rules): :class:`MOEADBounded`,
+a pymoo ``Algorithm`` in numpy, driven by ``pymoo.optimize.minimize`` as every optimiser here is.
 
 Why not pymoo's ``MOEAD``: its replacement puts an offspring into *every* neighbour whose subproblem it
 improves (no bound), mating and replacement always use the neighbourhood, and it takes no constraints
@@ -36,6 +37,8 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+from pymoo.core.algorithm import Algorithm
+from pymoo.core.population import Population
 
 DECOMPOSITIONS = ("tchebycheff", "pbi")
 
@@ -107,17 +110,6 @@ def polynomial_mutation(rng, X, xl, xu, *, prob_var, eta=20.0):
 
 
 # ------------------------------------------------------------------------------ algorithm
-def _evaluate(problem, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    if problem.n_ieq_constr:
-        F, G = problem.evaluate(X, return_values_of=["F", "G"])
-        return np.asarray(F, dtype=float), np.asarray(G, dtype=float).reshape(len(X), -1)
-    return np.asarray(problem.evaluate(X, return_values_of=["F"]), dtype=float), np.zeros((len(X), 0))
-
-
-def _violation(G: np.ndarray) -> np.ndarray:
-    return np.maximum(G, 0.0).sum(axis=1) if G.shape[1] else np.zeros(len(G))
-
-
 def bounded_replacement(
     cand: np.ndarray, g_new: np.ndarray, g_old: np.ndarray, cv_new: float, cv_old: np.ndarray, n_replace: int
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -130,84 +122,123 @@ def bounded_replacement(
     return cand[better][:n_replace], g_new[better][:n_replace]
 
 
-def moead_bounded(
-    problem,
-    ref_dirs: np.ndarray,
-    *,
-    n_gen: int,
-    n_neighbors: int = 20,
-    delta: float = 0.9,
-    n_replace: int = 2,
-    decomposition: str = "tchebycheff",
-    theta: float = 5.0,
-    seed: int = 0,
-    crossover_prob: float = 0.6,
-    mutation_prob: float = 0.05,
-    sbx_eta: float = 15.0,
-    pm_eta: float = 20.0,
-    repair: Callable[[np.ndarray], np.ndarray] | None = None,
-    initial: np.ndarray | None = None,
-    progress: Callable[[int, int], None] | None = None,
-) -> tuple[np.ndarray, int]:
-    """MOEA/D on a pymoo ``Problem`` (``F`` and, if ``n_ieq_constr``, ``G <= 0`` feasible) with one
-    subproblem per row of ``ref_dirs``: (final population ``X``, number of evaluations).
+def _violation(G: np.ndarray) -> np.ndarray:
+    return np.maximum(G, 0.0).sum(axis=1) if G.shape[1] else np.zeros(len(G))
+
+
+class MOEADBounded(Algorithm):
+    """MOEA/D as a pymoo ``Algorithm`` (driven by :func:`pymoo.optimize.minimize`, like every optimiser
+    here) on a ``Problem`` (``F`` and, if ``n_ieq_constr``, ``G <= 0`` feasible) with one subproblem per
+    row of ``ref_dirs``. One pymoo iteration is the initial population, then one per generation (so
+    ``n_gen`` generations are ``("n_gen", n_gen + 1)`` in pymoo's count). Its random numbers come from its
+    own generator seeded by ``seed`` (the same stream whatever pymoo's seed).
 
     ``repair(X) -> X`` is applied to the first population and to every offspring; ``initial`` (designs)
     replaces the random first population (rows beyond the population are dropped, missing ones drawn).
     """
-    pop_size, m = ref_dirs.shape
-    if not 2 <= n_neighbors <= pop_size:
-        raise ValueError(f"n_neighbors: must lie in [2, pop_size={pop_size}], got {n_neighbors}")
-    if n_replace < 1:
-        raise ValueError("n_replace: must be >= 1")
-    if decomposition not in DECOMPOSITIONS:
-        raise ValueError(f"decomposition: unknown {decomposition!r} (use one of {', '.join(DECOMPOSITIONS)})")
-    rng = np.random.default_rng(seed)
-    xl, xu = np.asarray(problem.xl, dtype=float), np.asarray(problem.xu, dtype=float)
-    fix = repair if repair is not None else (lambda X: X)
-    W = np.asarray(ref_dirs, dtype=float)
-    B = np.argsort(np.linalg.norm(W[:, None, :] - W[None, :, :], axis=2), axis=1, kind="stable")[:, :n_neighbors]
 
-    X = xl + rng.random((pop_size, problem.n_var)) * (xu - xl)
-    if initial is not None:
-        k = min(len(initial), pop_size)
-        X[:k] = np.asarray(initial, dtype=float)[:k]
-    X = fix(X)
-    F, G = _evaluate(problem, X)
-    CV = _violation(G)
-    n_eval = pop_size
-    z = (F[CV <= 0] if np.any(CV <= 0) else F).min(axis=0)
-    everyone = np.arange(pop_size)
+    def __init__(
+        self,
+        ref_dirs: np.ndarray,
+        *,
+        n_neighbors: int = 20,
+        delta: float = 0.9,
+        n_replace: int = 2,
+        decomposition: str = "tchebycheff",
+        theta: float = 5.0,
+        seed: int = 0,
+        crossover_prob: float = 0.6,
+        mutation_prob: float = 0.05,
+        sbx_eta: float = 15.0,
+        pm_eta: float = 20.0,
+        repair: Callable[[np.ndarray], np.ndarray] | None = None,
+        initial: np.ndarray | None = None,
+        **kwargs,
+    ):
+        super().__init__(**kwargs)
+        self.ref_dirs = np.asarray(ref_dirs, dtype=float)
+        pop_size = len(self.ref_dirs)
+        if not 2 <= n_neighbors <= pop_size:
+            raise ValueError(f"n_neighbors: must lie in [2, pop_size={pop_size}], got {n_neighbors}")
+        if n_replace < 1:
+            raise ValueError("n_replace: must be >= 1")
+        if decomposition not in DECOMPOSITIONS:
+            raise ValueError(f"decomposition: unknown {decomposition!r} (use one of {', '.join(DECOMPOSITIONS)})")
+        self.n_neighbors, self.delta, self.n_replace = int(n_neighbors), float(delta), int(n_replace)
+        self.decomposition, self.theta = decomposition, float(theta)
+        self.moead_seed = int(seed)
+        self.crossover_prob, self.mutation_prob = float(crossover_prob), float(mutation_prob)
+        self.sbx_eta, self.pm_eta = float(sbx_eta), float(pm_eta)
+        self.fix = repair if repair is not None else (lambda X: X)
+        self.initial = None if initial is None else np.asarray(initial, dtype=float)
 
-    for gen in range(1, n_gen + 1):
-        local = rng.random(pop_size) < delta
-        order = rng.permutation(pop_size)
-        P = np.array([rng.choice(B[i] if local[i] else everyone, 2, replace=False) for i in range(pop_size)])
-        Y = sbx(rng, X[P[:, 0]], X[P[:, 1]], xl, xu, prob=crossover_prob, eta=sbx_eta)
-        Y = fix(polynomial_mutation(rng, Y, xl, xu, prob_var=mutation_prob, eta=pm_eta))
-        FY, GY = _evaluate(problem, Y)
+    def _setup(self, problem, **kwargs):
+        self.rng = np.random.default_rng(self.moead_seed)
+        self.xl, self.xu = np.asarray(problem.xl, dtype=float), np.asarray(problem.xu, dtype=float)
+        W = self.ref_dirs
+        dist = np.linalg.norm(W[:, None, :] - W[None, :, :], axis=2)
+        self.B = np.argsort(dist, axis=1, kind="stable")[:, : self.n_neighbors]
+        self.everyone = np.arange(len(W))
+
+    def _initialize_infill(self):
+        X = self.xl + self.rng.random((len(self.ref_dirs), self.problem.n_var)) * (self.xu - self.xl)
+        if self.initial is not None:
+            k = min(len(self.initial), len(X))
+            X[:k] = self.initial[:k]
+        return Population.new("X", self.fix(X))
+
+    def _initialize_advance(self, infills=None, **kwargs):
+        self.X = np.array(infills.get("X"), dtype=float)
+        self.F, self.G = _values(infills)
+        self.CV = _violation(self.G)
+        self.z = (self.F[self.CV <= 0] if np.any(self.CV <= 0) else self.F).min(axis=0)
+        self._sync()
+
+    def _infill(self):
+        rng, n = self.rng, len(self.ref_dirs)
+        self.local = rng.random(n) < self.delta
+        self.order = rng.permutation(n)
+        P = np.array([rng.choice(self.B[i] if self.local[i] else self.everyone, 2, replace=False) for i in range(n)])
+        X, xl, xu = self.X, self.xl, self.xu
+        Y = sbx(rng, X[P[:, 0]], X[P[:, 1]], xl, xu, prob=self.crossover_prob, eta=self.sbx_eta)
+        return Population.new(
+            "X", self.fix(polynomial_mutation(rng, Y, xl, xu, prob_var=self.mutation_prob, eta=self.pm_eta))
+        )
+
+    def _advance(self, infills=None, **kwargs):
+        Y = np.array(infills.get("X"), dtype=float)
+        FY, GY = _values(infills)
         CVY = _violation(GY)
-        n_eval += pop_size
-
+        X, F, G, CV, W, m = self.X, self.F, self.G, self.CV, self.ref_dirs, self.F.shape[1]
         # ideal and nadir, fixed within the generation
         if np.any(CVY <= 0):
-            z = np.minimum(z, FY[CVY <= 0].min(axis=0))
+            self.z = np.minimum(self.z, FY[CVY <= 0].min(axis=0))
+        z = self.z
         feas = CV <= 0
         nadir = np.maximum((F[feas] if feas.sum() >= 2 else F).max(axis=0), z + 1e-12)
         span = np.where(nadir - z > 1e-12, nadir - z, 1.0)
-        g = aggregate((F - z) / span, W, decomposition, theta)
+        g = aggregate((F - z) / span, W, self.decomposition, self.theta)
         FY_n = (FY - z) / span
 
-        for i in order:  # bounded replacement, subproblems in random order
-            cand = rng.permutation(B[i] if local[i] else everyone)
-            gc = aggregate(np.broadcast_to(FY_n[i], (len(cand), m)), W[cand], decomposition, theta)
-            hit, g_hit = bounded_replacement(cand, gc, g[cand], CVY[i], CV[cand], n_replace)
+        for i in self.order:  # bounded replacement, subproblems in random order
+            cand = self.rng.permutation(self.B[i] if self.local[i] else self.everyone)
+            gc = aggregate(np.broadcast_to(FY_n[i], (len(cand), m)), W[cand], self.decomposition, self.theta)
+            hit, g_hit = bounded_replacement(cand, gc, g[cand], CVY[i], CV[cand], self.n_replace)
             if len(hit):
                 X[hit], F[hit], G[hit], CV[hit] = Y[i], FY[i], GY[i], CVY[i]
                 g[hit] = g_hit
-        if progress is not None:
-            progress(gen, n_gen)
-    return X, n_eval
+        self._sync()
+
+    def _sync(self):
+        """pymoo's view of the population (the optimum it tracks, the result's ``pop``)."""
+        self.pop = Population.new("X", self.X, "F", self.F, "G", self.G, "CV", self.CV[:, None])
 
 
-__all__ = ["DECOMPOSITIONS", "aggregate", "bounded_replacement", "moead_bounded", "polynomial_mutation", "sbx"]
+def _values(pop) -> tuple[np.ndarray, np.ndarray]:
+    F = np.array(pop.get("F"), dtype=float)
+    G = pop.get("G")
+    G = np.zeros((len(F), 0)) if G is None or np.size(G) == 0 else np.array(G, dtype=float).reshape(len(F), -1)
+    return F, G
+
+
+__all__ = ["DECOMPOSITIONS", "MOEADBounded", "aggregate", "bounded_replacement", "polynomial_mutation", "sbx"]
