@@ -300,8 +300,11 @@ def igd_plus(F: np.ndarray, reference_front: np.ndarray) -> float:
 
 
 @njit(parallel=True, cache=True)
-def _dominated_counts(F: np.ndarray, Z: np.ndarray) -> np.ndarray:  # pragma: no cover
+def _dominated_samples(F, Z, start, out) -> np.ndarray:  # pragma: no cover
+    """How many samples (rows of ``Z``) each row of ``F`` weakly dominates; with ``out`` non-empty, also
+    their indices, row ``i``'s from ``out[start[i]]`` on (the counts of a first pass give ``start``)."""
     counts = np.zeros(F.shape[0], dtype=np.int64)
+    write = out.size > 0
     for i in prange(F.shape[0]):
         c = 0
         for s in range(Z.shape[0]):
@@ -311,24 +314,11 @@ def _dominated_counts(F: np.ndarray, Z: np.ndarray) -> np.ndarray:  # pragma: no
                     ok = False
                     break
             if ok:
+                if write:
+                    out[start[i] + c] = s
                 c += 1
         counts[i] = c
     return counts
-
-
-@njit(parallel=True, cache=True)
-def _dominated_lists(F: np.ndarray, Z: np.ndarray, start: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
-    for i in prange(F.shape[0]):
-        c = start[i]
-        for s in range(Z.shape[0]):
-            ok = True
-            for j in range(F.shape[1]):
-                if F[i, j] > Z[s, j]:
-                    ok = False
-                    break
-            if ok:
-                out[c] = s
-                c += 1
 
 
 @njit(cache=True)
@@ -390,11 +380,11 @@ def hv_greedy_subset(F: np.ndarray, k: int, reference, *, n_samples: int, seed: 
         Fu = np.ascontiguousarray(F[usable])
         lo = Fu.min(axis=0)
         Z = lo + np.random.default_rng(seed).random((int(n_samples), F.shape[1])) * (r - lo)
-        counts = _dominated_counts(Fu, Z)
+        counts = _dominated_samples(Fu, Z, np.zeros(len(Fu) + 1, dtype=np.int64), np.empty(0, dtype=np.int64))
         start = np.zeros(len(Fu) + 1, dtype=np.int64)
         start[1:] = np.cumsum(counts)
         items = np.empty(int(start[-1]), dtype=np.int64)
-        _dominated_lists(Fu, Z, start, items)
+        _dominated_samples(Fu, Z, start, items)
         chosen = usable[_greedy_cover(start, items, int(n_samples), int(k))]
         alone[usable] = counts
     if len(chosen) < k:

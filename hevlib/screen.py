@@ -90,28 +90,26 @@ def not_stalled() -> ScreenRule:
     )
 
 
-def speed_dev_max(limit: float) -> ScreenRule:
+def _at_most(name: str, response: str, limit: float, description: str) -> ScreenRule:
+    """A simulated response at most ``limit`` (NaN fails); as a constraint ``value / limit - 1``."""
     return ScreenRule(
-        "speed_dev_max",
+        name,
         True,
-        f"sim_speed_dev <= {limit:g} (share of the cycle off the trace)",
-        ("speed_dev",),
-        lambda c: c["speed_dev"] <= limit,
-        lambda c: c["speed_dev"] / limit - 1.0,
+        description,
+        (response,),
+        lambda c: c[response] <= limit,
+        lambda c: c[response] / limit - 1.0,
         float(limit),
     )
+
+
+def speed_dev_max(limit: float) -> ScreenRule:
+    description = f"sim_speed_dev <= {limit:g} (share of the cycle off the trace)"
+    return _at_most("speed_dev_max", "speed_dev", limit, description)
 
 
 def mass_max(limit: float) -> ScreenRule:
-    return ScreenRule(
-        "mass_max",
-        True,
-        f"sim_m_veh <= {limit:g} kg",
-        ("m_veh",),
-        lambda c: c["m_veh"] <= limit,
-        lambda c: c["m_veh"] / limit - 1.0,
-        float(limit),
-    )
+    return _at_most("mass_max", "m_veh", limit, f"sim_m_veh <= {limit:g} kg")
 
 
 def _buildable(c: Columns) -> np.ndarray:
