@@ -148,13 +148,23 @@ def _mc(F: np.ndarray, r: np.ndarray, n_samples: int, seed: int) -> tuple[float,
     volume = float(np.prod(r - lo))
     rng = np.random.default_rng(seed)
     chunk = _MC_CHUNK_SAMPLES
-    order = np.argsort(F, axis=0, kind="stable")  # (n, m): rows sorted by each objective
-    by_obj = np.ascontiguousarray(np.stack([F[order[:, j]] for j in range(F.shape[1])]))
-    sorted_vals = np.ascontiguousarray(np.take_along_axis(F, order, axis=0).T)
+    by_obj, sorted_vals = _by_objective(F)
     hits = 0
     for start in range(0, n_samples, chunk):
         k = min(chunk, n_samples - start)
         hits += int(_count_dominated(by_obj, sorted_vals, lo + rng.random((k, F.shape[1])) * (r - lo)))
+    return _estimate(volume, hits, n_samples)
+
+
+def _by_objective(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_count_dominated`'s view of a front: its rows sorted by each objective, and those values."""
+    order = np.argsort(F, axis=0, kind="stable")  # (n, m): rows sorted by each objective
+    by_obj = np.ascontiguousarray(np.stack([F[order[:, j]] for j in range(F.shape[1])]))
+    return by_obj, np.ascontiguousarray(np.take_along_axis(F, order, axis=0).T)
+
+
+def _estimate(volume: float, hits: int, n_samples: int) -> tuple[float, float]:
+    """Box volume times the dominated share, and its binomial standard error."""
     p = hits / n_samples
     return volume * p, volume * float(np.sqrt(p * (1.0 - p) / n_samples))
 
@@ -256,15 +266,10 @@ class CommonSamples:
             return 0.0, 0.0
         if np.any(F < self.lower):
             raise ValueError("hypervolume samples: a front reaches below the samples' box")
-        order = np.argsort(F, axis=0, kind="stable")
-        by_obj = np.ascontiguousarray(np.stack([F[order[:, j]] for j in range(F.shape[1])]))
-        sorted_vals = np.ascontiguousarray(np.take_along_axis(F, order, axis=0).T)
-        n = len(self.samples)
-        hits = 0
-        for start in range(0, n, _MC_CHUNK_SAMPLES * 8):
-            hits += int(_count_dominated(by_obj, sorted_vals, self.samples[start : start + _MC_CHUNK_SAMPLES * 8]))
-        p = hits / n
-        return self.volume * p, self.volume * float(np.sqrt(p * (1.0 - p) / n))
+        by_obj, sorted_vals = _by_objective(F)
+        n, chunk = len(self.samples), _MC_CHUNK_SAMPLES * 8
+        hits = sum(int(_count_dominated(by_obj, sorted_vals, self.samples[i : i + chunk])) for i in range(0, n, chunk))
+        return _estimate(self.volume, hits, n)
 
 
 @njit(parallel=True, cache=True)

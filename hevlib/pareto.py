@@ -37,10 +37,10 @@ import pyarrow as pa
 from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, SENSE
 from hevlib.indicators import Hypervolume, Normalisation, hypervolume
 from hevlib.params import OptimiseParams
-from hevlib.screen import ScreenRule, screening_rules
+from hevlib.screen import SIM, ScreenRule, passing, screening_rules
 from hevlib.tables import Table, columns, lazy, matrix, n_rows
 
-SIM, PRED = "sim_", "pred_"
+PRED = "pred_"
 #: Decimals the design variables are rounded to when looking for identical designs.
 DEDUP_DECIMALS = 9
 #: Per-front flags the optimisers write; dropped on merging (dominance and feasibility are recomputed).
@@ -153,11 +153,6 @@ def algo_names(algo: str) -> list[str]:
 
 
 # ------------------------------------------------------------------------------------ screening
-def passing(table: Table, expr: pl.Expr) -> np.ndarray:
-    """(n,) bool: where the boolean expression holds on ``table`` (null fails); reads only its columns."""
-    return lazy(table).select(expr.fill_null(False).alias("ok")).collect().to_series().to_numpy().astype(bool)
-
-
 def apply_screening(
     table: Table, rules: Sequence[ScreenRule], candidates: np.ndarray | None = None
 ) -> tuple[np.ndarray, dict[str, np.ndarray], dict]:
@@ -216,6 +211,13 @@ def screened_normalisation(tables: Sequence[Table], screen) -> Normalisation:
     if len(F) == 0:
         raise ValueError("hypervolume normalisation: no simulated design passes the screen")
     return Normalisation.from_points(F)
+
+
+def judged_normalisation(doe: Table, heldout: Table, screen) -> Normalisation:
+    """The normalisation every source is judged on: :func:`screened_normalisation` of the DOE and the
+    held-out designs (unprefixed responses, as simulated) -- data no source produced. It scores; no
+    search ever sees it."""
+    return screened_normalisation([simulated_as_front(doe), simulated_as_front(heldout)], screen)
 
 
 def screened_hypervolume(
@@ -593,6 +595,7 @@ __all__ = [
     "passing",
     "HvSettings",
     "screened_hypervolume",
+    "judged_normalisation",
     "screening_rules",
     "apply_screening",
     "normalise",

@@ -22,6 +22,7 @@ import numpy as np
 import polars as pl
 
 from hevlib.design import DESIGN_VARS, gear_set_buildable
+from hevlib.tables import lazy
 
 Columns = Mapping[str, np.ndarray]
 SIM = "sim_"
@@ -63,9 +64,12 @@ class ScreenRule:
 
     def check(self, table) -> np.ndarray:
         """(n,) bool pass mask on a table (``sim_`` responses)."""
-        from hevlib.tables import lazy
+        return passing(table, self.expr())
 
-        return lazy(table).select(self.expr().fill_null(False).alias("ok")).collect().to_series().to_numpy()
+
+def passing(table, expr: pl.Expr) -> np.ndarray:
+    """(n,) bool: where the boolean expression holds on ``table`` (null fails); reads only its columns."""
+    return lazy(table).select(expr.fill_null(False).alias("ok")).collect().to_series().to_numpy().astype(bool)
 
 
 def gen_below_motor(enabled: bool = True) -> ScreenRule:
@@ -158,6 +162,7 @@ __all__ = [
     "mass_max",
     "not_stalled",
     "passes",
+    "passing",
     "screening_rules",
     "speed_dev_max",
 ]

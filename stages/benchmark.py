@@ -93,8 +93,9 @@ def benchmark_run_stage(
             ctx = RunContext(cfg, simulate, _problem_factory(cfg, sim), X_doe, R_doe, cb)
             table = run_source(ctx, source, k)
         wall = time.perf_counter() - t0
+        out = run_path(source, k, runs_dir)
         write_parquet(
-            run_path(source, k, runs_dir),
+            out,
             table,
             RUN_SCHEMA,
             metadata={
@@ -106,7 +107,6 @@ def benchmark_run_stage(
                 "hev.cycle": cycle.name,
             },
         )
-        out = run_path(source, k, runs_dir)
         typer.echo(f"benchmark-run {source}: run {k} ({table.num_rows} simulations) in {wall:.0f} s -> {out}")
 
 

@@ -57,7 +57,7 @@ def optimise_stage(
     from hevlib.doe import training_data
     from hevlib.optimise import HvSettings, oracle, surrogate_assisted
     from hevlib.optimise.archive import ARCHIVE_SCHEMA, SimulationLog
-    from hevlib.pareto import screened_normalisation, simulated_as_front
+    from hevlib.pareto import judged_normalisation
 
     cfg = params_from(params)
     o = cfg.optimise
@@ -77,8 +77,7 @@ def optimise_stage(
     doe_df = read_table(DOE)
     # the one normalisation every source is judged on: screen-passing designs of the DOE and the held-out
     # set, which no source produced; it only scores (HvSettings), never steers a search
-    judged = [simulated_as_front(doe_df), simulated_as_front(read_table(HELDOUT))]
-    hv = HvSettings.from_params(screened_normalisation(judged, cfg.screen), o, cfg.screen)
+    hv = HvSettings.from_params(judged_normalisation(doe_df, read_table(HELDOUT), cfg.screen), o, cfg.screen)
     log = SimulationLog(simulate)  # every simulation the source makes: its archive
 
     if source == "oracle":

@@ -8,7 +8,7 @@ from pathlib import Path
 import polars as pl
 
 from hevlib.io import read_table, write_json, write_parquet, write_text
-from hevlib.pareto import screened_normalisation, select_designs, simulated_as_front, source_summary, table_schema
+from hevlib.pareto import judged_normalisation, select_designs, source_summary, table_schema
 from hevlib.plots import save_figure
 from hevlib.plots.pareto import distributions_figure, infill_figure, tradeoff_data, tradeoffs_figure
 from hevlib.tables import scan
@@ -41,8 +41,7 @@ def pareto(params_path: str = PARAMS_OPTION) -> None:
     # a source's front is its last round's rows (earlier rounds are the infill history)
     fronts = {a: t.filter(pl.col("round") == pl.col("round").max()).drop("round").collect() for a, t in tables.items()}
     archives = {a: scan(FRONTS_DIR / f"{a}_archive.parquet").collect() for a in algos}
-    judged = [simulated_as_front(read_table(DOE)), simulated_as_front(read_table(HELDOUT))]
-    norm = screened_normalisation(judged, params.screen)
+    norm = judged_normalisation(read_table(DOE), read_table(HELDOUT), params.screen)
     result = select_designs(fronts, params.screen)
     additions, hv_wall_s = source_summary(fronts, archives, reports, result.merged, params.screen, o, norm)
     result.summary.update(additions)

@@ -206,7 +206,7 @@ def test_the_simulator_model_simulates_each_population_once():
 def test_the_oracle_optimises_the_simulator_itself():
     settings = OracleParams(**SMALL["nsga3"].model_dump())
     hv = _hv()
-    res = oracle(_make_problem, settings, stand_in_simulate, lambda table: hv)
+    res = oracle(_make_problem, settings, stand_in_simulate, hv)
     t = res.table
     for k in OBJECTIVES:  # no surrogate error: what it optimised is what was simulated
         np.testing.assert_array_equal(t[f"pred_{k}"].to_numpy(), t[f"sim_{k}"].to_numpy())

@@ -33,7 +33,7 @@ from hevlib.benchmark.scoring import (
 )
 from hevlib.indicators import CommonSamples, Normalisation
 from hevlib.io import read_table, write_json, write_table
-from hevlib.pareto import normalisation_dict, screened_normalisation, simulated_as_front
+from hevlib.pareto import judged_normalisation, normalisation_dict
 
 
 def load_runs(cfg, runs_dir: Path) -> tuple[list[Run], dict[str, float]]:
@@ -98,8 +98,7 @@ def benchmark_report(cfg, runs_dir: Path, doe_path: Path, heldout_path: Path, ou
     b = cfg.benchmark
     runs, wall = load_runs(cfg, runs_dir)
     reference = float(cfg.optimise.hv_reference)
-    tables = [simulated_as_front(read_table(doe_path)), simulated_as_front(read_table(heldout_path))]
-    norm = screened_normalisation(tables, cfg.screen)
+    norm = judged_normalisation(read_table(doe_path), read_table(heldout_path), cfg.screen)
     budgets = {s: budgets_of(s, b.budgets, b.budget, b.direct_budget) for s in cfg.benchmark.sources}
     lo = sample_box(runs, norm, reference)
     samples = CommonSamples.draw(lo, reference, b.hv_samples, b.hv_seed)

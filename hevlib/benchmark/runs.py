@@ -50,13 +50,6 @@ def n_runs(cfg: Params, source: str) -> int:
     return b.oracle_seeds if source == "oracle" else b.seeds
 
 
-def source_budget(cfg: Params, source: str) -> int | None:
-    """Simulations a run of ``source`` may use (None: the oracle's own budget)."""
-    if source == "oracle":
-        return None
-    return cfg.benchmark.direct_budget if source in ("nsga3_direct", "moead_direct") else cfg.benchmark.budget
-
-
 @dataclass
 class RunContext:
     """What every run needs: params, the simulator call, the problem factory and the DOE."""
@@ -170,7 +163,7 @@ def _direct(ctx: RunContext, source: str, seed: int, log: SimulationLog) -> np.n
         n_gen = max(1, math.ceil(cfg.benchmark.direct_budget / pop) - 1)
         settings = base.model_copy(update={"pop_size": pop, "n_gen": n_gen, "seed": seed % (2**31)})
     hv = _hv_cheap(ctx)
-    result = oracle(ctx.make_problem, settings, log, lambda table: hv, progress=ctx.progress)
+    result = oracle(ctx.make_problem, settings, log, hv, progress=ctx.progress)
     pop = result.front.population
     return pop if pop is not None else result.front.X
 
@@ -193,5 +186,4 @@ __all__ = [
     "n_runs",
     "run_seed",
     "run_source",
-    "source_budget",
 ]

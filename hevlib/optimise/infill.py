@@ -126,13 +126,12 @@ def _ratio(hv: float, hv_oracle: float | None) -> float | None:
     return hv / hv_oracle if hv_oracle else None
 
 
-def archive_table(archive: pa.Table | pd.DataFrame, problem: HevProblem, algo: str = "oracle") -> pd.DataFrame:
+def archive_table(archive: pd.DataFrame, problem: HevProblem, algo: str = "oracle") -> pd.DataFrame:
     """Every distinct design of a simulation archive (:data:`~hevlib.optimise.archive.ARCHIVE_SCHEMA`; its
     latest row) as a front table (:func:`~hevlib.optimise.resim.front_table`), the simulated objectives as
     the "predicted" ones: what a search on the simulator saw is what was simulated. ``problem`` must not
     carry the stalled callable (it would simulate again): its constraints read the objectives given."""
-    df = archive.to_pandas() if isinstance(archive, pa.Table) else archive
-    df = df.drop_duplicates(subset=list(DESIGN_VARS), keep="last").reset_index(drop=True)
+    df = archive.drop_duplicates(subset=list(DESIGN_VARS), keep="last").reset_index(drop=True)
     X = df[list(DESIGN_VARS)].to_numpy(dtype=float)
     sim = pd.DataFrame({k: df[f"sim_{k}"].to_numpy() for k in RESPONSES})
     F = sim[list(OBJECTIVES)].to_numpy(dtype=float)
@@ -144,7 +143,7 @@ def oracle(
     make_problem: Callable[..., HevProblem],
     settings: AlgoParams,
     simulate: Callable[[np.ndarray], pd.DataFrame],
-    hv: HvSettings | Callable[[pd.DataFrame | None], HvSettings],
+    hv: HvSettings,
     progress: Callable[[int, int], None] | None = None,
 ) -> StudyResult:
     """``settings.algorithm`` with the simulator as the model; ``make_problem(model, stalled)`` builds the
@@ -154,17 +153,15 @@ def oracle(
     already). The source's front, like every source's, is drawn from its archive (:func:`archive_front`:
     the screen-passing, non-dominated designs of everything it simulated, the hypervolume-greedy
     ``pop_size`` of them); nothing is simulated twice. ``StudyResult.responses`` holds the archive
-    (:data:`~hevlib.optimise.archive.ARCHIVE_SCHEMA`). ``hv``: the hypervolume settings (or a callable
-    giving them, for callers that build them late)."""
+    (:data:`~hevlib.optimise.archive.ARCHIVE_SCHEMA`). ``hv``: the hypervolume settings."""
     t0 = time.perf_counter()
     log = simulate if isinstance(simulate, SimulationLog) else SimulationLog(simulate)
     model = SimulatorModel(log)
     problem = make_problem(model, stalled=model.stalled)
     found = optimise(problem, settings.algorithm, settings, progress)
-    archive = log.table(found.population if found.population is not None else found.X)
+    archive = log.table(found.population if found.population is not None else found.X).to_pandas()
     pool = archive_table(archive, make_problem(model))
     pool = pool[pool["feasible"] & ~pool["sim_stalled"].astype(bool)]  # the constraints the search had
-    hv = hv(pool) if callable(hv) else hv
     n_pop = len(found.population) if found.population is not None else 0
     table = archive_front([pool], max(settings.pop_size, n_pop), hv)
     Y = table[[f"sim_{k}" for k in OBJECTIVES]].to_numpy(dtype=float)
@@ -172,7 +169,7 @@ def oracle(
     table = table.drop(columns=[c for c in table.columns if c.endswith("_std")])
     table.insert(0, ROUND, 0)
     report = front_report(front, table, hv, settings=settings)
-    judged = archive_hypervolume(log, hv)
+    judged = archive_hypervolume(archive, hv)
     report.update(
         algo="oracle",
         algorithm=settings.algorithm,
@@ -185,15 +182,16 @@ def oracle(
     )
     wall = time.perf_counter() - t0
     times = {**runtimes(found, 0.0), "algo": "oracle", "runtime_total_s": wall}
-    return StudyResult(front, table, report, times, responses=archive.to_pandas(), population=found.population)
+    return StudyResult(front, table, report, times, responses=archive, population=found.population)
 
 
-def archive_hypervolume(log: SimulationLog, hv: HvSettings) -> dict:
-    """The judged figure of a source: the hypervolume (``hv``) of every design it simulated so far that
-    passes the screen (the archive, not thinned; ``judged_object: archive``), with how it was computed."""
-    h, n = hv.of(log.table("all").to_pandas())
+def archive_hypervolume(archive: pd.DataFrame, hv: HvSettings) -> dict:
+    """The judged figure of a source: the hypervolume (``hv``) of every design of its archive (every
+    simulation so far, :data:`~hevlib.optimise.archive.ARCHIVE_SCHEMA`) that passes the screen, not
+    thinned (``judged_object: archive``), with how it was computed."""
+    h, n = hv.of(archive)
     return {"judged_object": "archive", "hypervolume": h.value, "hypervolume_se": h.se, "method": h.method,
-            "points": h.n_points, "designs": n, "n_simulations": len(log)}  # fmt: skip
+            "points": h.n_points, "designs": n, "n_simulations": len(archive)}  # fmt: skip
 
 
 def _round_entry(r: int, n_sims: int, report: dict, hv_oracle: float | None, archive: dict | None = None) -> dict:
@@ -281,14 +279,20 @@ def search_normalisation(Y: np.ndarray, speed_dev_max: float | None) -> Normalis
     training designs (the DOE and what it simulated) that follow the sizing cycle well enough
     (``speed_dev <= speed_dev_max``; all of them while fewer than two do). Never the judged normalisation:
     that one is built from the held-out set, which no search may see."""
-    F = to_minimisation(np.asarray(Y, dtype=float))
-    finite = np.all(np.isfinite(F), axis=1)
-    use = finite
-    if speed_dev_max is not None:
-        speed = {"speed_dev": np.asarray(Y)[:, OBJECTIVES.index("speed_dev")]}
-        follow = finite & speed_dev_rule(speed_dev_max).mask(speed)
-        use = follow if np.count_nonzero(follow) >= 2 else finite
-    return Normalisation.from_points(F[use])
+    Y = np.asarray(Y, dtype=float)
+    if speed_dev_max is None:
+        follow = np.ones(len(Y), dtype=bool)
+    else:
+        follow = speed_dev_rule(speed_dev_max).mask({"speed_dev": Y[:, OBJECTIVES.index("speed_dev")]})
+    return own_normalisation(to_minimisation(Y), follow)
+
+
+def own_normalisation(F_min: np.ndarray, preferred: np.ndarray) -> Normalisation:
+    """Ideal and nadir of a search's own designs (minimisation form): of the ``preferred`` ones (those
+    that pass its screen) with finite objectives, or of every finite one while fewer than two do."""
+    finite = np.all(np.isfinite(F_min), axis=1)
+    use = finite & preferred if np.count_nonzero(finite & preferred) >= 2 else finite
+    return Normalisation.from_points(F_min[use])
 
 
 def surrogate_assisted(
@@ -346,7 +350,7 @@ def surrogate_assisted(
         front_r = archive_front(archive, max(settings.pop_size, len(res.population)), hv)
         report_r = front_report(res.front, front_r, hv, settings=round_settings)
         tables.append(front_r.assign(**{ROUND: r})[[ROUND, *front_r.columns]])
-        judged = archive_hypervolume(log, hv) if log is not None else None
+        judged = archive_hypervolume(log.table("all").to_pandas(), hv) if log is not None else None
         entries.append(_round_entry(r, n_sims, report_r, hv_oracle, judged))
         times.append({"round": r, "runtime_s": time.perf_counter() - t0, "n_simulations": n_sims})
         if max_simulations is not None and (n_sims >= max_simulations or res.report["n_simulations"] == 0):
@@ -376,6 +380,7 @@ __all__ = [
     "StudyResult",
     "optimise_and_resimulate",
     "oracle",
+    "own_normalisation",
     "search_normalisation",
     "select_candidates",
     "surrogate_assisted",

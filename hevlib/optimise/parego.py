@@ -32,10 +32,10 @@ import numpy as np
 import pandas as pd
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES
-from hevlib.indicators import Normalisation
+from hevlib.optimise.infill import own_normalisation
 from hevlib.optimise.problem import HevProblem, _repaired
 from hevlib.pareto import nondominated_mask, to_minimisation
-from hevlib.screen import passes
+from hevlib.screen import passes, speed_dev_max
 
 _SPEED_DEV = OBJECTIVES.index("speed_dev")
 
@@ -58,13 +58,6 @@ def screen_mask(X: np.ndarray, responses: pd.DataFrame, screen) -> np.ndarray:
     cols = {v: X[:, j] for j, v in enumerate(DESIGN_VARS)}
     cols.update({k: responses[k].to_numpy(dtype=float) for k in ("speed_dev", "m_veh", "stalled")})
     return passes(cols, screen)
-
-
-def own_normalisation(F_min: np.ndarray, passing: np.ndarray) -> Normalisation:
-    """Ideal and nadir of the run's own screen-passing designs (all finite ones while fewer than two pass)."""
-    finite = np.all(np.isfinite(F_min), axis=1)
-    use = finite & passing if np.count_nonzero(finite & passing) >= 2 else finite
-    return Normalisation.from_points(F_min[use])
 
 
 def candidate_pool(
@@ -141,18 +134,16 @@ def parego(
         passing = screen_mask(X, R, screen) & ok
         norm = own_normalisation(F_min, passing)
         best = norm(F_min[passing])
-        nd = np.flatnonzero(passing)[nondominated_mask(best)] if len(best) else np.zeros(0, dtype=int)
-        pool = candidate_pool(problem, X[nd], settings, rng)
+        nd = nondominated_mask(best)
+        pool = candidate_pool(problem, X[np.flatnonzero(passing)[nd]], settings, rng)
         draws = model.sample(pool, settings.n_samples, rng)  # (S, m, 11) natural units
         feasible = (
-            draws[..., _SPEED_DEV] <= problem.speed_dev_max
+            speed_dev_max(problem.speed_dev_max).mask({"speed_dev": draws[..., _SPEED_DEV]})
             if problem.speed_dev_max is not None
             else np.ones(draws.shape[:2], dtype=bool)
         )
         weights = rng.dirichlet(np.ones(len(OBJECTIVES)), q)
-        pick = choose_batch(
-            norm(to_minimisation(draws)), feasible, best[nondominated_mask(best)], weights, settings.rho
-        )
+        pick = choose_batch(norm(to_minimisation(draws)), feasible, best[nd], weights, settings.rho)
         X_new = pool[pick]
         R_new = simulate(X_new).reset_index(drop=True)
         X, R = np.vstack([X, X_new]), pd.concat([R, R_new], ignore_index=True)
@@ -161,4 +152,4 @@ def parego(
     return X, R
 
 
-__all__ = ["ParegoSettings", "candidate_pool", "choose_batch", "own_normalisation", "parego", "screen_mask"]
+__all__ = ["ParegoSettings", "candidate_pool", "choose_batch", "parego", "screen_mask"]
