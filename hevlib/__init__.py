@@ -11,7 +11,7 @@ from pathlib import Path
 
 __version__ = "0.1.0"
 #: Bumped whenever the simulator's physics change: stored with every simulated artifact.
-MODEL_VERSION = "sim-3"
+MODEL_VERSION = "sim-4"
 
 #: Modules compiled by numba. Its on-disk cache keys a kernel on its own file only, not on the
 #: modules it calls, so the cache lives in a folder named after a hash of all of them: editing any

@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from hevlib.cycles import Cycle
-from hevlib.design import BOOL_RESPONSES, RESPONSES
+from hevlib.design import BOOL_RESPONSES, CHARGE_BALANCE_RESPONSES, RESPONSES
 from hevlib.sim.simulator import Simulator, energy_balance
 
 BASELINE_VEHICLES: tuple[str, ...] = ("prius", "conventional")
@@ -45,9 +45,12 @@ def simulate_baselines(
     n_total = len(runs) * len(BASELINE_VEHICLES)
     for run, cyc in runs.items():
         for vehicle in BASELINE_VEHICLES:
-            raw = sim.run_raw(None, cyc, vehicle)
-            resp = sim.responses(raw, cyc).iloc[0]
-            report[vehicle][run] = {k: (bool(resp[k]) if k in BOOL_RESPONSES else float(resp[k])) for k in RESPONSES}
+            raw, resp = sim.drive(sim.vehicle(None, vehicle), cyc, charge_balanced=True)
+            resp = resp.iloc[0]
+            report[vehicle][run] = {
+                k: (bool(resp[k]) if k in BOOL_RESPONSES else float(resp[k]))
+                for k in RESPONSES + CHARGE_BALANCE_RESPONSES
+            }
             eb = energy_balance(raw).iloc[0]
             balance.append(
                 {

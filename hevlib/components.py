@@ -268,6 +268,10 @@ class PowerSplit:
     engine_min_on_speed_rad_s: float  # lowest running speed: the engine map's lowest speed (FC_PRIUS_JPN: 1000 rpm)
     operating_line_power_w: np.ndarray  # ADVISOR's 5-point Prius operating line (for comparison)
     operating_line_speed_rad_s: np.ndarray
+    engine_startup_inertia_kg_m2: float  # PTC_PRIUS_JPN: the engine's effective inertia while started
+    engine_crank_torque_nm: float  # ... the torque it resists cranking with
+    engine_firing_speed_rad_s: float  # ... the speed below which its fuel is cut (fuel flows from here up)
+    coolant_warmup_temperature_c: float  # ... below which the engine stays on until warm
 
 
 @dataclass(frozen=True)
@@ -886,6 +890,10 @@ def load_library(
             engine_min_on_speed_rad_s=engine_hybrid.min_speed_rad_s,
             operating_line_power_w=_ro(ptc["engine_operating_line"]["power_w"]),
             operating_line_speed_rad_s=_ro(ptc["engine_operating_line"]["speed_rad_s"]),
+            engine_startup_inertia_kg_m2=float(ptc["engine_startup_effective_inertia_kg_m2"]),
+            engine_crank_torque_nm=float(ptc["engine_crank_torque_nm"]),
+            engine_firing_speed_rad_s=float(ptc["engine_fuel_cut_below_speed_rad_s"]),
+            coolant_warmup_temperature_c=float(ptc["coolant_warmup_temperature_c"]),
         ),
         gearbox=Gearbox(
             name="TX_5SPD_SI",

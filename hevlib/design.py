@@ -71,10 +71,20 @@ EXTRA_RESPONSES: tuple[str, ...] = (
     "co_engine_out",
     "nox_engine_out",
     "t_cat_light_off_s",
+    "n_engine_starts",
+    "e_engine_start_j",
+    "eta_engine_mean",
 )
 RESPONSES: tuple[str, ...] = OBJECTIVES + EXTRA_RESPONSES
 #: Responses that are flags (bool columns); every other response is a float.
-BOOL_RESPONSES: tuple[str, ...] = ("cycle_met", "stalled")
+#: What the charge-balanced runs add (validation and baselines; :func:`hevlib.sim.simulator.charge_balance`).
+CHARGE_BALANCE_RESPONSES: tuple[str, ...] = (
+    "fc_charge_balanced",
+    "charge_balance_runs",
+    "charge_balance_residual",
+    "charge_balanced",
+)
+BOOL_RESPONSES: tuple[str, ...] = ("cycle_met", "stalled", "charge_balanced")
 
 
 @dataclass(frozen=True)

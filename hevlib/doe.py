@@ -70,6 +70,9 @@ UNITS: dict[str, str] = {
     "co_engine_out": "g/km",
     "nox_engine_out": "g/km",
     "t_cat_light_off_s": "s",
+    "n_engine_starts": "-",
+    "e_engine_start_j": "J",
+    "eta_engine_mean": "-",
     "source": "-",
 }
 

@@ -129,6 +129,10 @@ class SimParams(_Strict):
     emissions: Literal["tailpipe", "engine_out"] = "tailpipe"  # what the hc, co, nox objectives are
     start: dict[str, Literal["cold", "hot"]] = {}  # thermal start state per cycle name (absent: cold)
     cold_correction: Literal["none", "advisor"] = "advisor"  # cold-engine fuel/emission factors (no cold maps)
+    # charge-balanced fuel (validation, baselines): rerun from the end SOC until |net battery energy| is within
+    # this share of the fuel energy (SAE J1711: 1 %), at most max_runs runs in all
+    charge_balance_tolerance: Annotated[float, Field(gt=0, le=0.2)] = 0.01
+    charge_balance_max_runs: Annotated[int, Field(ge=1, le=50)] = 10
     # where batches of designs run (hevlib/sim/executor.py); results do not depend on it
     executor: Literal["local", "dask"] = "local"
     scheduler: str | None = None  # dask: scheduler address (tcp://host:8786); unset: a LocalCluster per stage
@@ -165,6 +169,9 @@ class PmsParams(_Strict):
     engine_min_power_kw: NonNeg = 6.0
     charge_power_fraction: Frac = 0.25
     soc_target: Frac = 0.6
+    # ADVISOR's Prius control beyond the rule base (PTC_PRIUS_JPN); false = the study's plain rule base
+    coolant_warmup: bool = True  # below the file's warm-up coolant temperature the engine stays on until warm
+    engine_dynamics: bool = True  # starts spin the carrier up (start-up inertia, crank torque), speed rate-bound
 
     @model_validator(mode="after")
     def _ordered(self):

@@ -140,6 +140,9 @@ def fake_responses(X: np.ndarray) -> pd.DataFrame:
     for p in ("hc", "co", "nox"):
         cols[f"{p}_engine_out"] = 3.0 * cols[p]
     cols["t_cat_light_off_s"] = 60.0 + 100.0 * u[:, 0]
+    cols["n_engine_starts"] = np.round(10 + 30 * u[:, 2])
+    cols["e_engine_start_j"] = 4000.0 * cols["n_engine_starts"]
+    cols["eta_engine_mean"] = 0.3 + 0.05 * u[:, 0]
     return pd.DataFrame(cols)[list(RESPONSES)]
 
 

@@ -116,6 +116,9 @@ def stand_in_simulate(X: np.ndarray) -> pd.DataFrame:
     for p in ("hc", "co", "nox"):
         df[f"{p}_engine_out"] = 4.0 * df[p]
     df["t_cat_light_off_s"] = 120.0
+    df["n_engine_starts"] = 20.0
+    df["e_engine_start_j"] = 20.0 * 4000.0
+    df["eta_engine_mean"] = 0.34
     return df
 
 

@@ -239,7 +239,7 @@ def test_force_limited_step_converges_from_the_envelope_and_without_it(sim):
         lim = split.limits(v_req, d, E, M, G)
         st = split.dispatch(lim, f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0, d, E, M, G)
         st, v, u, env = _limited_split(
-            v0, v_req, v_req, f_cmd, ON, p_dis, p_chg, 1.0, sn, cs, 1.0, st, env, d, ch, E, M, G
+            v0, v_req, v_req, f_cmd, ON, p_dis, p_chg, 1.0, sn, cs, 1.0, st, env, 0.0, np.inf, d, ch, E, M, G
         )
         lim = split.limits(v, d, E, M, G)
         assert st == split.dispatch(lim, f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0, d, E, M, G)  # the state at v

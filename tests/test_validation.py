@@ -15,7 +15,7 @@ from test_pareto import synthetic_front
 from typer.testing import CliRunner
 
 from hevlib.cycles import Cycle
-from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
+from hevlib.design import CHARGE_BALANCE_RESPONSES, DESIGN_VARS, OBJECTIVES, RESPONSES
 from hevlib.io import write_parquet
 from hevlib.params import ScreenParams
 from hevlib.pareto import select_designs
@@ -37,6 +37,7 @@ CONVENTIONAL = {
     "m_veh": 1195.0,
     "fc": 8.0,
     "fc_soc_corrected": 8.0,
+    "fc_charge_balanced": 8.0,
     "diff_soc": 0.0,
     "hc": 0.4,
     "co": 2.0,
@@ -49,6 +50,7 @@ PRIUS = {
     "m_veh": 1404.0,
     "fc": 4.5,
     "fc_soc_corrected": 4.6,
+    "fc_charge_balanced": 4.7,
     "diff_soc": 0.02,
     "hc": 0.2,
     "co": 1.0,
@@ -95,13 +97,18 @@ class FakeSimulator:
         row["fc"] *= k
         row["cycle_met"] = vehicle != "hybrid" or bool(x[0] > 40)
         row["stalled"] = False
+        row["fc_charge_balanced"] = row["fc_soc_corrected"]
+        row["charge_balance_runs"] = 2.0
+        row["charge_balance_residual"] = 0.001
+        row["charge_balanced"] = True
         return row
 
-    def run(self, X, cycle, vehicle="hybrid", batch_size=1000, progress=None):
+    def run(self, X, cycle, vehicle="hybrid", batch_size=1000, progress=None, charge_balanced=False):
         FakeSimulator.calls.append((vehicle, cycle.name, len(X)))
         X = np.atleast_2d(X)
         rows = [self._row(x, cycle, vehicle) for x in (X if vehicle == "hybrid" else X[:1])]
-        return pd.DataFrame(rows, columns=list(RESPONSES))
+        cols = list(RESPONSES) + (list(CHARGE_BALANCE_RESPONSES) if charge_balanced else [])
+        return pd.DataFrame(rows, columns=cols)
 
     def trace(self, X, cycle, vehicle):
         t = cycle.time_s
@@ -177,7 +184,7 @@ def test_validation_table_has_one_row_per_vehicle_and_cycle(tmp_path):
     prius_x = np.array([43.0, 31.0, 15.0, 3.93, 25, 78, 30])
     table = validation_table(FakeSimulator(), _selected(), [_cycle("ftp"), _cycle("hwfet")], prius_x)
     assert len(table) == 2 * (3 + 2)
-    assert list(table.columns) == ["vehicle", "algo", "cycle", *DESIGN_VARS, *RESPONSES]
+    assert list(table.columns) == ["vehicle", "algo", "cycle", *DESIGN_VARS, *RESPONSES, *CHARGE_BALANCE_RESPONSES]
     conv = table[(table["vehicle"] == "conventional")]
     assert conv[list(DESIGN_VARS)].isna().all().all() and (conv["algo"] == "baseline").all()
     prius = table[(table["vehicle"] == "prius") & (table["cycle"] == "ftp")].iloc[0]
@@ -247,6 +254,7 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
     assert metrics["improvement"]["all"]["vs_conventional"]["diff_soc"] is None
     head = json.loads(Path("reports/headline.json").read_text())  # the declared DVC metric: the answer only
     assert head == {
+        "fc_saving_charge_balanced_pct": metrics["improvement"]["all"]["vs_conventional"]["fc_charge_balanced"],
         "fc_saving_pct": metrics["improvement"]["all"]["vs_conventional"]["fc"],
         "fc_saving_vs_prius_pct": metrics["improvement"]["all"]["vs_prius"]["fc"],
         "mass_saving_pct": metrics["improvement"]["all"]["vs_conventional"]["m_veh"],

@@ -95,6 +95,7 @@ class PmsConfig(NamedTuple):
     soc_target: float
     soc_min: float
     soc_high: float  # no charging from the engine above this SOC
+    t_warmup_c: float  # coolant below this: the engine stays on until warm (-inf: rule off)
 
 
 def thresholds(pms) -> np.ndarray:
@@ -113,6 +114,7 @@ def supervise(
     lim: SplitLimits,
     t_r_req: float,
     p_dis: float,
+    t_coolant_c: float,
     th: np.ndarray,
     pc: PmsConfig,
     d: SplitDesign,
@@ -123,7 +125,7 @@ def supervise(
 
     Order of authority: physics first (the engine cannot run when its speed window is empty; it must run
     whenever it can and the battery alone cannot carry the traction or the accessory load), then the
-    fuzzy rule base, then the minimum on/off times. The engine is fuel-cut while braking; an engine that
+    fuzzy rule base and the coolant warm-up rule (a cold engine stays on), then the minimum on/off times. The engine is fuel-cut while braking; an engine that
     is off while the ring turns fast enough to overspeed a stopped generator is spun by the gear set with
     its fuel cut (:func:`hevlib.sim.powertrain.hybrid.dispatch`), not fired.
     Target power: ring demand plus accessories plus a charging share (fuzzy charge degree or SOC
@@ -144,6 +146,10 @@ def supervise(
         want = True
     if t_r_req < 0.0:
         want = False
+    if t_coolant_c < pc.t_warmup_c:
+        # ADVISOR's Prius (PTC_PRIUS_JPN cs_clt_tmp; its 'need engine on?' block): the engine may go off only
+        # with the coolant at the warm-up temperature or above, so a cold engine stays on, braking included
+        want = True
     if engine_on and not want and t_in_state_s < pc.min_on_s and t_r_req >= 0.0:
         want = True
     if not engine_on and want and t_in_state_s < pc.min_off_s and ev_ok:

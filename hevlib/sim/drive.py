@@ -25,7 +25,8 @@ from hevlib.sim.powertrain.battery import current_for_power, power_limits
 from hevlib.sim.powertrain.borrow import borrowed
 from hevlib.sim.powertrain.engine import EngineArrays, max_torque, rates
 from hevlib.sim.powertrain.lookup import cell, interp1_np
-from hevlib.sim.powertrain.machines import MachineArrays, torque_limit
+from hevlib.sim.powertrain.planetary import sun_speed
+from hevlib.sim.powertrain.machines import MachineArrays, electric_power, torque_limit
 from hevlib.sim.powertrain.scaling import in_series
 from hevlib.sim.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_force
 
@@ -85,6 +86,10 @@ class DriveConfig(NamedTuple):
     j_mot: float
     j_gen: float
     off_trace_mps: float  # speed error above which a step counts as off the trace (speed_dev)
+    engine_dynamics: bool  # power split: carrier speed as a state (starts, crank work, rate bound, inertia)
+    j_start: float  # the engine's start-up effective inertia (base engine), kg m^2
+    t_crank: float  # its crank torque (base engine), N m
+    w_fire: float  # firing speed: fuel flows from here up, rad/s
 
 
 class KernelVehicle(NamedTuple):
@@ -113,9 +118,9 @@ class KernelVehicle(NamedTuple):
 STILL_MPS = 0.01
 
 
-# per-design row of the design matrix the kernels read
-R_S_ENG, R_S_MOT, R_S_GEN, R_I0, R_N_BAT, R_N_R, R_N_S, R_MASS = range(8)
-N_R = 8
+# per-design row of the design matrix the kernels read (R_SOC0: the drive's initial SOC)
+R_S_ENG, R_S_MOT, R_S_GEN, R_I0, R_N_BAT, R_N_R, R_N_S, R_MASS, R_SOC0 = range(9)
+N_R = 9
 
 
 @njit(cache=True, inline="always")
@@ -131,7 +136,10 @@ def split_equivalent_mass_kg(row: np.ndarray, c: DriveConfig) -> float:
 
     Wheels ``J_wh / r^2``; motor on the ring ``J_m (i0 / r)^2``; generator on the sun, which at a held
     engine speed (and with the engine stopped) turns at ``-k`` times the ring (Willis), ``J_g (k i0 / r)^2``.
-    The engine's speed is set by the controller, not by the vehicle's, so its inertia does not reflect.
+    The engine's speed is set by the controller, not by the vehicle's, so its inertia does not reflect; its
+    starts are booked by the engine dynamics (``e_engine_start_j``), its speed changes while it runs are bounded
+    by the generator's torque on the carrier's inertia but not yet booked (the cross term of the generator's
+    two motions is left out too).
     Machine inertias scale with the machine's power, like their masses.
     """
     k = row[R_N_R] / row[R_N_S]
@@ -264,6 +272,8 @@ def _engine_step(o, temp, k, q, X, running, w_e, t_e, s_eng, E, c, v_avg, t, tr,
         fuel, hc, co, nox = fuel * c_f, hc * c_hc, co * c_co, nox * c_nox
     p_shaft = t_e * w_e
     _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, c.dt)
+    if running:
+        o[L.O_E_SHAFT_FUELLED] += p_shaft * c.dt
     q_waste = fuel * c.lhv_j_per_g - p_shaft
     _exhaust(o, temp, k, q, X, ON, fuel, q_waste, w_e, hc, co, nox, v_avg, c.dt, t, tr, record)
     return fuel
@@ -342,7 +352,7 @@ def _newton_from(v0, v_e, f_e, slope, sn, cs, dt, v_max, ch: Chassis) -> float:
 
 
 @njit(cache=True)
-def _limited_split(v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st, env, d, ch, E, M, G):
+def _limited_split(v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st, env, w_from, dw, d, ch, E, M, G):
     """Solve a force-limited step of the power-split car: the mean speed ``v`` (<= ``v_cap``) at which
     the force the driveline gives at ``v`` (``st``: its state at ``v_req``) buys exactly ``v``.
 
@@ -350,7 +360,8 @@ def _limited_split(v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs,
     previous force-limited step (``v < 0``: none). Consecutive limited steps have nearly the same envelope and
     nearby solutions, so the first guess is the Newton step from that point (else the fixed-point step from
     ``v_req``), the second a Newton step with the slope, then secant steps, until the speed bought is within
-    ``SPEED_TOL``. Returns (state, v_disp, v_avg, the envelope point and slope for the next solve)."""
+    ``SPEED_TOL``. The engine's speeds stay within ``w_from +/- dw`` (:func:`hevlib.sim.powertrain.hybrid.within_rate`).
+    Returns (state, v_disp, v_avg, the envelope point and slope for the next solve)."""
     v_e, f_e, slope = env
     u = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch)
     v_a, f_a, h_a = v_req, st.f_del, u - v_req
@@ -360,7 +371,7 @@ def _limited_split(v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs,
         v_b = min(max(v_req + h_a, 0.0), v_cap)
     f_b = f_a
     for it in range(12):
-        lim = split.limits(v_b, d, E, M, G)
+        lim = split.within_rate(split.limits(v_b, d, E, M, G), w_from, dw, d, E, G)
         st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis, p_chg, regen, d, E, M, G)
         f_b = st.f_del
         u = mean_speed_for_force(v0, f_b, sn, cs, dt, ch)
@@ -405,8 +416,10 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
     dt = c.dt
     k = d.n_r / d.n_s
     v_lim = split_speed_limit(d)
-    soc, v = c.soc_init, 0.0
+    soc, v = row[R_SOC0], 0.0
     eng_on, t_state = OFF, 1e9
+    cdyn = split.carrier_dynamics(d, G, c.j_start, c.j_gen, c.t_crank, c.w_fire, dt)
+    w_c, was_running = 0.0, False  # carrier speed at the end of the last step; the engine fired then
     env = NO_ENVELOPE  # the last force-limited step's point on the full-power force envelope (_limited_split)
     soc_lo, soc_hi = soc, soc
     n = v_ref.shape[0]
@@ -423,6 +436,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
         if stationary and not key_on[t]:
             # prescribed key-off (e.g. the FTP soak): nothing runs, no accessory load
             eng_on = OFF
+            w_c, was_running = 0.0, False
             _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.off_trace_mps)
             _exhaust(o, temp, k_th, q_th, X, OFF, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, t, tr, record)
             t_state += dt
@@ -438,14 +452,37 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
         f_cmd = min(f_req, f_adh) if f_req >= 0.0 else max(f_req, -f_adh)
         regen = driveline_brake_share(v_req, c)
         lim = split.limits(v_req, d, E, M, G)
+        dynamics = c.engine_dynamics
+        w_from, dw = w_c, np.inf  # the carrier's reach this step (engine dynamics)
+        if dynamics and was_running:
+            dw = cdyn.dw_max
+            lim = split.within_rate(lim, w_from, dw, d, E, G)
         t_r_req = split.ring_torque_for_wheel_force(f_cmd, d)
-        want, p_target = supervise(eng_on, t_state, soc, gr, v0 * 3.6, lim, t_r_req, p_dis, th, pc, d, E, M)
+        want, p_target = supervise(
+            eng_on, t_state, soc, gr, v0 * 3.6, lim, t_r_req, p_dis, temp[th_.N_BLOCK], th, pc, d, E, M
+        )
+        e_start = t_su = p_start = 0.0
+        if dynamics and want and not was_running:
+            # a start: the generator spins the carrier from its speed to firing speed against the crank torque,
+            # at full torque, from the battery (its losses at the mean sun speed of the spin-up on top)
+            e_start, t_su = split.start_cost(w_c, cdyn)
+            if 0.0 < e_start < np.inf:
+                t_gs = cdyn.t_spin / (1.0 + k)
+                w_gs = sun_speed(0.5 * (w_c + cdyn.w_fire), lim.w_r, d.n_r, d.n_s)
+                p_start = (e_start + (electric_power(t_gs, w_gs, d.s_gen, G) - t_gs * w_gs) * t_su) / dt
+            if e_start == np.inf or p_start > p_dis:
+                # the generator cannot overcome the crank torque, or the battery cannot give the crank power
+                want, p_target, e_start, t_su, p_start = False, 0.0, 0.0, 0.0, 0.0
+            else:
+                # a spin-up longer than the step is booked in this step whole (the engine fires at its end)
+                w_from, dw = max(w_c, cdyn.w_fire), cdyn.dw_max * max(1.0 - t_su / dt, 0.0)
+                lim = split.within_rate(lim, w_from, dw, d, E, G)
         if want != eng_on:
-            if want:
-                o[L.O_N_STARTS] += 1.0
             eng_on = want
             t_state = 0.0
-        st = split.dispatch(lim, f_cmd, eng_on, p_target, p_dis, p_chg, regen, d, E, M, G)
+        # the start's battery power is held back from what the dispatch may use
+        p_dis_d, p_chg_d = p_dis - p_start, p_chg + p_start
+        st = split.dispatch(lim, f_cmd, eng_on, p_target, p_dis_d, p_chg_d, regen, d, E, M, G)
         v_disp = v_req
         f_brake = 0.0
         limited = not stationary and f_req > 0.0 and st.f_del < f_req - 1e-6 * max(1.0, f_req)
@@ -454,12 +491,13 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
         elif limited:
             # the driver floors it: engine at full power, then the speed this force buys (fixed point)
             if eng_on and p_target < lim.p_e_max:
-                st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis, p_chg, regen, d, E, M, G)
+                st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis_d, p_chg_d, regen, d, E, M, G)
                 limited = st.f_del < f_req - 1e-6 * max(1.0, f_req)
             if limited:
                 o[L.O_N_LIMITED] += 1.0
                 st, v_disp, v_avg, env = _limited_split(
-                    v0, v_req, v_req, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st, env, d, ch, E, M, G
+                    v0, v_req, v_req, f_cmd, eng_on, p_dis_d, p_chg_d, regen, sn, cs, dt, st, env, w_from, dw, d, ch,
+                    E, M, G,
                 )
             else:
                 v_avg = v_req
@@ -468,8 +506,14 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             v_avg = v_req
             f_brake = f_req - st.f_del
         v_next = max(2.0 * v_avg - v0, 0.0)
+        # ---- the carrier's dynamics: the start (booked above) and the running engine's speed change, both from
+        # the battery through the generator; a stop lets the carrier run down in the engine's friction
+        if st.running and not was_running:
+            o[L.O_N_STARTS] += 1.0
+        p_dyn = p_start
+        p_batt = st.p_batt + p_dyn
         # ---- battery
-        i_a = current_for_power(st.p_batt, ocv, r_d, r_c)
+        i_a = current_for_power(p_batt, ocv, r_d, r_c)
         q = i_a * dt if i_a >= 0.0 else c.eta_c * i_a * dt
         soc -= q / cap
         p_chem = ocv * q / dt
@@ -480,9 +524,10 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             o[L.O_ENG_SPUN_STEPS] += 1.0  # spun by the gear set with its fuel cut
         fuel = _engine_step(o, temp, k_th, q_th, X, st.running, st.w_e, st.t_e, d.s_eng, E, c, v_avg, t, tr, record)
         o[L.O_E_BATT] += p_chem * dt
-        o[L.O_E_LOSS_BATT] += (p_chem - st.p_batt) * dt
+        o[L.O_E_LOSS_BATT] += (p_chem - p_batt) * dt
         o[L.O_E_LOSS_MOT] += (st.p_m_e - st.t_m * st.w_r) * dt
-        o[L.O_E_LOSS_GEN] += (st.p_g_e - st.t_g * st.w_g) * dt
+        o[L.O_E_LOSS_GEN] += (st.p_g_e - st.t_g * st.w_g) * dt + (p_start * dt - e_start)
+        o[L.O_E_ENGINE_START] += e_start
         o[L.O_E_GEN_MECH_IN] += max(-st.t_g * st.w_g, 0.0) * dt
         o[L.O_E_GEN_ELEC_OUT] += max(-st.p_g_e, 0.0) * dt
         # gear-set loss: the engine's ideal ring share minus what reaches (or leaves) the ring
@@ -517,7 +562,8 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             tr[t + 1, L.T_T_M] = st.t_m
             tr[t + 1, L.T_W_G] = st.w_g
             tr[t + 1, L.T_T_G] = st.t_g
-            tr[t + 1, L.T_P_BATT] = st.p_batt
+            tr[t + 1, L.T_P_BATT] = p_batt
+            tr[t + 1, L.T_P_ENGINE_DYN] = p_dyn
             tr[t + 1, L.T_FUEL] = fuel
             tr[t + 1, L.T_ENG_ON] = 1.0 if st.running else 0.0
             tr[t + 1, L.T_F_PT] = st.f_del
@@ -535,6 +581,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             tr[t + 1, L.T_M_EFF] = ch.m_eff
         v = v_next
         t_state += dt
+        w_c, was_running = st.w_e, st.running
     o[L.O_SOC_END] = soc
     o[L.O_SOC_MIN_SEEN] = soc_lo
     o[L.O_SOC_MAX_SEEN] = soc_hi
@@ -543,7 +590,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
     th_.release(q_own)  # the scratch's owner lives to here
     if record:
         tr[0, L.T_V_REF] = v_ref[0]
-        tr[0, L.T_SOC] = c.soc_init
+        tr[0, L.T_SOC] = row[R_SOC0]
         tr[0, L.T_GRADE] = grade[0]
         tr[0, L.T_T_COOLANT] = t_init[th_.N_BLOCK]
         tr[0, L.T_T_CAT] = t_init[th_.N_MON]
@@ -654,9 +701,9 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
             tr[t + 1, L.T_GRADE] = gr
             tr[t + 1, L.T_M_EFF] = ch.m_eff
         v = v_next
-    o[L.O_SOC_END] = c.soc_init
-    o[L.O_SOC_MIN_SEEN] = c.soc_init
-    o[L.O_SOC_MAX_SEEN] = c.soc_init
+    o[L.O_SOC_END] = row[R_SOC0]
+    o[L.O_SOC_MIN_SEEN] = row[R_SOC0]
+    o[L.O_SOC_MAX_SEEN] = row[R_SOC0]
     o[L.O_E_KIN_END] = 0.5 * m_prev * v * v
     th_.finish(temp_own, k_own, (n - 1) * dt, o)
     th_.release(q_own)

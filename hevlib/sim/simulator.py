@@ -26,14 +26,18 @@ import pandas as pd
 from hevlib import MODEL_VERSION
 from hevlib.components import ComponentLibrary
 from hevlib.cycles import Cycle
-from hevlib.design import BOOL_RESPONSES, DESIGN_VARS, OBJECTIVES, RESPONSES
+from hevlib.design import BOOL_RESPONSES, CHARGE_BALANCE_RESPONSES, DESIGN_VARS, OBJECTIVES, RESPONSES
 from hevlib.params import Params
 from hevlib.sim.drive import drive_conventional, drive_hybrid
 from hevlib.sim.executor import LocalExecutor, executor_for
 from hevlib.sim.performance import performance_batch
+from hevlib.sim.drive import R_SOC0
 from hevlib.sim.powertrain.layout import (
     BALANCE_SINKS,
     N_O,
+    O_E_BATT,
+    O_E_FUEL,
+    O_SOC_END,
     N_T,
     OUT_NAMES,
     THERMAL_SINKS,
@@ -58,6 +62,7 @@ class RunOutput:
     perf: np.ndarray
     mass_kg: np.ndarray
     traces: np.ndarray | None
+    soc_init: np.ndarray  #: each vehicle's SOC at the start of the drive
 
     def frame(self) -> pd.DataFrame:
         return pd.DataFrame(self.out, columns=list(OUT_NAMES))
@@ -76,7 +81,55 @@ def simulate(vehicle: Vehicle, cycle: Cycle, *, record: bool = False, performanc
     kernel = drive_conventional if veh.kind == "conventional" else drive_hybrid
     in_parallel(kernel, n, veh.kernel, cycle.to_kernel(), t_init, out, traces, rec)
     perf = performance_tests(vehicle) if performance else np.full((n, 3), np.nan)
-    return RunOutput(out, perf, vehicle.mass_kg, traces if record else None)
+    return RunOutput(out, perf, vehicle.mass_kg, traces if record else None, veh.kernel.rows[:, R_SOC0].copy())
+
+
+def battery_share(out: np.ndarray) -> np.ndarray:
+    """Net chemical energy drawn from the battery as a share of the fuel energy (signed; +inf or -inf where the
+    battery moved and no fuel was burnt, 0 where neither)."""
+    e_fuel, e_batt = out[:, O_E_FUEL], out[:, O_E_BATT]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(e_fuel > 0, e_batt / np.where(e_fuel > 0, e_fuel, 1.0), np.sign(e_batt) * np.inf)
+
+
+def charge_balance(
+    vehicle: Vehicle, cycle: Cycle, first: RunOutput, *, tolerance: float, max_runs: int
+) -> tuple[RunOutput, pd.DataFrame]:
+    """Charge-balanced fuel, as FASTSim does for hybrids (``soc_bal_iters``): each vehicle whose net battery
+    energy on ``first`` (its run from ``sim.soc_init``) is more than ``tolerance`` of its fuel energy (SAE J1711:
+    1 %) is driven again from the SOC it ended at, until it balances or has been driven ``max_runs`` times.
+
+    Returns the last run of every vehicle (accumulators, performance of ``first``) and the
+    :data:`CHARGE_BALANCE_RESPONSES`: ``fc_charge_balanced`` (L/100 km of the balanced run; NaN where it did not
+    balance), the runs it took, the residual (net battery energy / fuel energy of the last run) and whether it
+    balanced. A vehicle without a battery balances on its first run."""
+    out = first.out.copy()
+    soc0 = first.soc_init.copy()
+    runs = np.ones(vehicle.n, dtype=np.int64)
+    resid = battery_share(out) if vehicle.kind != "conventional" else np.zeros(vehicle.n)
+    todo = ~(np.abs(resid) <= tolerance)
+    sim = vehicle.library.params.sim
+    while todo.any() and runs.max() < max_runs:
+        idx = np.flatnonzero(todo & (runs < max_runs))
+        if not len(idx):
+            break
+        soc0[idx] = np.clip(out[idx, O_SOC_END], sim.soc_min + 1e-6, sim.soc_max - 1e-6)
+        again = simulate(vehicle.take(idx).with_soc_init(soc0[idx]), cycle, performance=False)
+        out[idx] = again.out
+        runs[idx] += 1
+        resid[idx] = battery_share(again.out)
+        todo[idx] = ~(np.abs(resid[idx]) <= tolerance)
+    last = RunOutput(out, first.perf, first.mass_kg, None, soc0)
+    fc = responses(last, cycle, vehicle.library)["fc"].to_numpy()
+    frame = pd.DataFrame(
+        {
+            "fc_charge_balanced": np.where(todo, np.nan, fc),
+            "charge_balance_runs": runs.astype(float),
+            "charge_balance_residual": resid,
+            "charge_balanced": ~todo,
+        }
+    )
+    return last, frame
 
 
 def performance_tests(vehicle: Vehicle) -> np.ndarray:
@@ -145,7 +198,7 @@ def responses(res: RunOutput, cycle: Cycle, library: KernelLibrary) -> pd.DataFr
             "e_l": np.maximum(o["dist_ref_m"].to_numpy() - o["dist_m"].to_numpy(), 0.0) / 1e3,
             # share of the cycle's duration off the trace by more than the tolerance (ADVISOR's 2 mph)
             "speed_dev": o["off_trace_s"].to_numpy() / cycle.duration_s,
-            "diff_soc": sim.soc_init - o["soc_end"].to_numpy(),
+            "diff_soc": res.soc_init - o["soc_end"].to_numpy(),
             "v_max": res.perf[:, 2],
             "f_max": res.perf[:, 0],
             "fc_soc_corrected": 100.0 * (fuel_l + fuel_equiv_l) / dist_km,
@@ -164,6 +217,12 @@ def responses(res: RunOutput, cycle: Cycle, library: KernelLibrary) -> pd.DataFr
             "accessory_unmet_kwh": unmet_kwh,
             **{f"{k}_engine_out": o[f"{k}_g"].to_numpy() / dist_km for k in ("hc", "co", "nox")},
             "t_cat_light_off_s": o["t_cat_light_off_s"].to_numpy(),
+            "n_engine_starts": o["n_starts"].to_numpy(),
+            "e_engine_start_j": o["e_engine_start_j"].to_numpy(),
+            # fuel-weighted mean efficiency of the engine while fuelled (shaft work of fuelled steps / fuel energy)
+            "eta_engine_mean": np.where(
+                e_fuel > 0, o["e_shaft_fuelled_j"].to_numpy() / np.where(e_fuel > 0, e_fuel, 1.0), 0.0
+            ),
         }
     )
     failed = stalled | (o["dist_m"].to_numpy() < sim.min_distance_share * cycle.distance_m)
@@ -319,24 +378,50 @@ class Simulator:
         *,
         batch_size: int = 1000,
         progress: Callable[[int, int], None] | None = None,
+        charge_balanced: bool = False,
     ) -> pd.DataFrame:
-        """Responses (``hevlib.design.RESPONSES`` columns), one row per design of ``X`` in order.
+        """Responses (``hevlib.design.RESPONSES`` columns), one row per design of ``X`` in order; with
+        ``charge_balanced`` also the :data:`CHARGE_BALANCE_RESPONSES` (:func:`charge_balance`).
 
         ``X``: (n, 7) in ``DESIGN_VARS`` order, checked against the design space (ignored for the two
         baselines, which give one row). ``progress(n_done, n_total)`` is called after each batch.
         """
         if vehicle != "hybrid":
-            frames = [self.responses(self.run_raw(None, cycle, vehicle), cycle)]
+            frames = [self.drive(self.vehicle(None, vehicle), cycle, charge_balanced=charge_balanced)[1]]
         else:
             X = self.space.check(X, what="designs")
             step = max(int(batch_size), 1)
             batches = [X[start : start + step] for start in range(0, X.shape[0], step)]
             frames = self.executor.map(
-                _batch_responses, self, [(b, cycle) for b in batches], [len(b) for b in batches], progress
+                _batch_responses,
+                self,
+                [(b, cycle, charge_balanced) for b in batches],
+                [len(b) for b in batches],
+                progress,
             )
         if not frames:
-            return pd.DataFrame({k: pd.Series(dtype=bool if k in BOOL_RESPONSES else float) for k in RESPONSES})
+            cols = RESPONSES + (CHARGE_BALANCE_RESPONSES if charge_balanced else ())
+            return pd.DataFrame(
+                {k: pd.Series(dtype=bool if k in BOOL_RESPONSES else float) for k in cols}
+            )
         return pd.concat(frames, ignore_index=True)
+
+    def drive(self, vehicle: Vehicle, cycle: Cycle, *, charge_balanced: bool = False) -> tuple[RunOutput, pd.DataFrame]:
+        """(raw run from ``sim.soc_init``, its responses) of ``vehicle`` on ``cycle``; with ``charge_balanced`` the
+        responses gain the :data:`CHARGE_BALANCE_RESPONSES` (``sim.charge_balance_*`` settings)."""
+        res = simulate(vehicle, cycle)
+        r = responses(res, cycle, self.library)
+        if charge_balanced:
+            sim = self.params.sim
+            _, cb = charge_balance(
+                vehicle,
+                cycle,
+                res,
+                tolerance=sim.charge_balance_tolerance,
+                max_runs=sim.charge_balance_max_runs,
+            )
+            r = pd.concat([r, cb], axis=1)
+        return res, r
 
     def trace(self, X: np.ndarray | None, cycle: Cycle, vehicle: Kind = "hybrid") -> pd.DataFrame:
         """Per-step traces (``TRACE_NAMES`` plus ``time_s``, ``design``) of a few designs."""
@@ -354,10 +439,10 @@ class Simulator:
         return responses(res, cycle, self.library)
 
 
-def _batch_responses(sim: Simulator, item: tuple[np.ndarray, Cycle]) -> pd.DataFrame:
+def _batch_responses(sim: Simulator, item: tuple[np.ndarray, Cycle, bool]) -> pd.DataFrame:
     """One batch's responses (an executor's task)."""
-    X, cycle = item
-    return sim.responses(sim.run_raw(X, cycle, "hybrid"), cycle)
+    X, cycle, charge_balanced = item
+    return sim.drive(sim.vehicle(X, "hybrid"), cycle, charge_balanced=charge_balanced)[1]
 
 
 def warm_up(params: Params, paper_dir: str | Path = "data/raw/paper") -> None:
@@ -410,6 +495,8 @@ __all__ = [
     "responses",
     "failure_ceilings",
     "energy_balance",
+    "charge_balance",
+    "CHARGE_BALANCE_RESPONSES",
     "with_inputs",
     "Vehicle",
     "KernelLibrary",

@@ -26,6 +26,7 @@ from hevlib.sim.drive import (
     N_R,
     R_I0,
     R_MASS,
+    R_SOC0,
     R_N_BAT,
     R_N_R,
     R_N_S,
@@ -207,6 +208,10 @@ def drive_config(lib: ComponentLibrary, params: Params, body, wheel, p_acc_w: fl
         j_mot=lib.motor.inertia_kg_m2,
         j_gen=lib.generator.inertia_kg_m2,
         off_trace_mps=sim.cycle_met_tolerance_kmh / 3.6,
+        engine_dynamics=bool(params.pms.engine_dynamics),
+        j_start=ps.engine_startup_inertia_kg_m2,
+        t_crank=ps.engine_crank_torque_nm,
+        w_fire=ps.engine_firing_speed_rad_s,
     )
 
 
@@ -297,6 +302,7 @@ class KernelLibrary:
                 pms.soc_target,
                 sim.soc_min,
                 pms.soc_high.value,
+                lib.power_split.coolant_warmup_temperature_c if pms.coolant_warmup else -np.inf,
             ),
             configs=configs,
             thermal=thermal,
@@ -387,6 +393,7 @@ class Vehicle:
             rows[:, R_N_R] = d["n_r"]
             rows[:, R_N_S] = d["n_s"]
         rows[:, R_MASS] = mass_kg
+        rows[:, R_SOC0] = library.params.sim.soc_init
         kernel = KernelVehicle(
             rows,
             library.configs[kind],
@@ -402,6 +409,17 @@ class Vehicle:
             library.thermal[kind],
         )
         return cls(kind, pd.DataFrame(X, columns=list(DESIGN_VARS)), kernel, library)
+
+    def with_soc_init(self, soc: np.ndarray | float) -> Vehicle:
+        """The same vehicles starting their drive at SOC ``soc`` (one per vehicle, or one for all)."""
+        rows = self.kernel.rows.copy()
+        rows[:, R_SOC0] = soc
+        return Vehicle(self.kind, self.design, self.kernel._replace(rows=rows), self.library)
+
+    def take(self, index: np.ndarray) -> Vehicle:
+        """The vehicles at ``index`` (integer positions or a boolean mask), as a batch of their own."""
+        rows = np.ascontiguousarray(self.kernel.rows[index])
+        return Vehicle(self.kind, self.design.iloc[index].reset_index(drop=True), self.kernel._replace(rows=rows), self.library)
 
     def with_step(self, dt_s: float) -> Vehicle:
         """The same vehicles driven at a time step of ``dt_s`` (the drive settings' default is 1 s)."""

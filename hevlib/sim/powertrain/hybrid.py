@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import numpy as np
 from numba import njit
 
 from hevlib.sim.powertrain.engine import EngineArrays, drag_torque, line_speed, max_torque
@@ -340,3 +341,56 @@ def dispatch(
     return SplitState(
         wheel_force_for_ring_torque(t_r, d), running, w_e, t_e, w_r, t_m, w_g, t_g, p_m_e, p_g_e, p_acc, p_batt, t_r
     )
+
+
+# ---------------------------------------------------------------------------------- engine dynamics
+class CarrierDynamics(NamedTuple):
+    """The carrier's inertia and what moves it (per design; :func:`carrier_dynamics`)."""
+
+    j: float  # carrier inertia with the ring held: engine start-up inertia + generator through Willis, kg m^2
+    t_spin: float  # most carrier torque the generator can apply (its low-speed torque limit times 1 + k), N m
+    t_crank: float  # the engine's resistance while cranked (compression and friction), N m
+    w_fire: float  # speed at which the engine fires (fuel on), rad/s
+    dw_max: float  # most carrier speed change in one step (generator's full torque on the inertia), rad/s
+
+
+@njit(cache=True, inline="always")
+def carrier_dynamics(
+    d: SplitDesign, G: MachineArrays, j_start: float, j_gen: float, t_crank: float, w_fire: float, dt: float
+) -> CarrierDynamics:
+    """The carrier of design ``d``: the engine's start-up inertia and crank torque (base engine values, scaled
+    with the engine like its torque), the generator's rotor reflected through Willis (``w_g = (1 + k) w_e``
+    with the ring held: ``J_g (1 + k)^2``, scaled with the generator), and the generator's low-speed torque."""
+    k = d.n_r / d.n_s
+    j = d.s_eng * j_start + d.s_gen * j_gen * (1.0 + k) * (1.0 + k)
+    t_spin = (1.0 + k) * torque_limit(0.0, d.s_gen, G)
+    return CarrierDynamics(j, t_spin, d.s_eng * t_crank, w_fire, dt * t_spin / j)
+
+
+@njit(cache=True, inline="always")
+def start_cost(w0: float, cd: CarrierDynamics) -> tuple[float, float]:
+    """(mechanical energy J, duration s) of spinning the engine from ``w0`` to its firing speed with the
+    generator at full torque against the crank torque: ``J (w_f^2 - w0^2) / 2 + T_crank theta``, the angle
+    ``theta = (w0 + w_f) / 2 * t`` turned in ``t = J (w_f - w0) / (T_spin - T_crank)``. Nothing when the
+    carrier already turns at firing speed; ``(inf, inf)`` when the generator cannot overcome the crank torque
+    (the engine cannot be started)."""
+    if w0 >= cd.w_fire:
+        return 0.0, 0.0
+    if cd.t_spin <= cd.t_crank:
+        return np.inf, np.inf
+    t = cd.j * (cd.w_fire - w0) / (cd.t_spin - cd.t_crank)
+    return 0.5 * cd.j * (cd.w_fire * cd.w_fire - w0 * w0) + cd.t_crank * 0.5 * (w0 + cd.w_fire) * t, t
+
+
+@njit(cache=True, inline="always")
+def within_rate(lim: SplitLimits, w_from: float, dw: float, d: SplitDesign, E: EngineArrays, G: MachineArrays):
+    """``lim`` with the engine's speed window cut to ``w_from +/- dw`` (what the carrier can reach this step),
+    its most power re-taken at the new top; ``lim`` itself where the cut leaves no speed (the gear set's
+    window moved away faster than the generator could follow: the generator's speed limit comes first)."""
+    lo, hi = max(lim.lo, w_from - dw), min(lim.hi, w_from + dw)
+    if lo > hi or (lo == lim.lo and hi == lim.hi):
+        return lim
+    k = d.n_r / d.n_s
+    w_g = sun_speed(hi, lim.w_r, d.n_r, d.n_s)
+    p_max = hi * min(max_torque(hi, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
+    return SplitLimits(lim.w_r, lim.t_m_cap, lo, hi, p_max)

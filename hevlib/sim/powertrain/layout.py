@@ -5,12 +5,16 @@ in m. The energy terms close the balance
 
     E_FUEL + E_BATT = E_LOSS_ENG + E_LOSS_MOT + E_LOSS_GEN + E_LOSS_PG + E_LOSS_FD + E_LOSS_GB
                       + E_LOSS_CLUTCH + E_LOSS_BATT + E_ACC + E_BRAKE + E_ROAD + E_GRADE + E_KIN_END
-                      + E_MISMATCH
+                      + E_MISMATCH + E_ENGINE_START
 
 (E_BATT: net chemical energy drawn from the battery; E_MISMATCH: what a force-limited step's fixed
 point left unresolved, reported so the tests can bound it). E_ACC is the accessory energy actually
 served; what the accessories asked for and no source could give is E_ACC_UNMET (never silently
-dropped: it is reported as ``accessory_unmet_kwh`` and fails the cycle).
+dropped: it is reported as ``accessory_unmet_kwh`` and fails the cycle). E_ENGINE_START is what the
+power-split car's starts cost at the carrier: the spin-up of the carrier's inertia from its speed to firing
+speed plus the crank work on the way, from the battery through the generator; the carrier's kinetic energy
+runs down in the engine's friction when it stops (not recovered), so it is a sink. E_SHAFT_FUELLED is the shaft work of
+fuelled steps only (the numerator of the fuel-weighted mean engine efficiency).
 """
 
 # ---- accumulated results per design
@@ -74,8 +78,10 @@ dropped: it is reported as ``accessory_unmet_kwh`` and fails the cycle).
     O_T_COOLANT_END_C,
     O_T_CAT_END_C,
     O_T_CAT_MAX_C,
-) = range(59)
-N_O = 59
+    O_E_ENGINE_START,
+    O_E_SHAFT_FUELLED,
+) = range(61)
+N_O = 61
 OUT_NAMES = (
     "fuel_g",
     "hc_g",
@@ -136,6 +142,8 @@ OUT_NAMES = (
     "t_coolant_end_c",
     "t_cat_end_c",
     "t_cat_max_c",
+    "e_engine_start_j",
+    "e_shaft_fuelled_j",
 )
 #: Heat balance of the thermal nodes (hevlib.sim.powertrain.thermal): stored heat change = sources - sinks.
 THERMAL_SOURCES = ("q_cyl_j", "q_exhaust_j", "q_exotherm_j")
@@ -156,6 +164,7 @@ BALANCE_SINKS = (
     "e_grade_j",
     "e_kin_end_j",
     "e_mismatch_j",
+    "e_engine_start_j",
 )
 
 # ---- trace channels (one row per time step, recorded designs only)
@@ -193,8 +202,9 @@ BALANCE_SINKS = (
     T_HC_TP,
     T_CO_TP,
     T_NOX_TP,
-) = range(33)
-N_T = 33
+    T_P_ENGINE_DYN,
+) = range(34)
+N_T = 34
 TRACE_NAMES = (
     "v_ref_mps",
     "v_mps",
@@ -229,4 +239,5 @@ TRACE_NAMES = (
     "hc_tailpipe_g_s",
     "co_tailpipe_g_s",
     "nox_tailpipe_g_s",
+    "p_engine_dyn_w",
 )
