@@ -74,6 +74,7 @@ EXTRA_RESPONSES: tuple[str, ...] = (
     "n_engine_starts",
     "e_engine_start_j",
     "eta_engine_mean",
+    "accel_dev_mean_abs",
 )
 RESPONSES: tuple[str, ...] = OBJECTIVES + EXTRA_RESPONSES
 #: Responses that are flags (bool columns); every other response is a float.

@@ -73,6 +73,7 @@ UNITS: dict[str, str] = {
     "n_engine_starts": "-",
     "e_engine_start_j": "J",
     "eta_engine_mean": "-",
+    "accel_dev_mean_abs": "%",
     "source": "-",
 }
 

@@ -143,6 +143,7 @@ def fake_responses(X: np.ndarray) -> pd.DataFrame:
     cols["n_engine_starts"] = np.round(10 + 30 * u[:, 2])
     cols["e_engine_start_j"] = 4000.0 * cols["n_engine_starts"]
     cols["eta_engine_mean"] = 0.3 + 0.05 * u[:, 0]
+    cols["accel_dev_mean_abs"] = 0.2 * cols["accel_dev"]
     return pd.DataFrame(cols)[list(RESPONSES)]
 
 

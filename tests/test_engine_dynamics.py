@@ -95,11 +95,12 @@ def test_the_rate_window_cuts_the_engine_speeds_and_retakes_the_most_power(sim):
     kv = veh.kernel
     d = split_design(kv.rows[0], kv.c)
     lim = split.limits(10.0, d, kv.E, kv.M, kv.G)
-    cut = split.within_rate(lim, lim.lo + 20.0, 10.0, d, kv.E, kv.G)
+    cut = split.within_rate(lim, lim.lo + 20.0, 10.0, 0.5, d, kv.E, kv.G)
     assert (cut.lo, cut.hi) == pytest.approx((lim.lo + 10.0, lim.lo + 30.0))
-    assert cut.p_e_max < lim.p_e_max
-    assert split.within_rate(lim, lim.hi + 100.0, 10.0, d, kv.E, kv.G) == lim  # out of reach: the gear set wins
-    assert split.within_rate(lim, lim.lo, np.inf, d, kv.E, kv.G) == lim
+    assert cut.p_e_max < lim.p_e_max and (cut.w_ref, cut.j_dt) == (lim.lo + 20.0, 0.5)
+    far = split.within_rate(lim, lim.hi + 100.0, 10.0, 0.5, d, kv.E, kv.G)  # out of reach: the gear set wins
+    assert (far.lo, far.hi, far.p_e_max) == (lim.lo, lim.hi, lim.p_e_max)
+    assert split.within_rate(lim, lim.lo, np.inf, 0.0, d, kv.E, kv.G)._replace(w_ref=0.0) == lim
 
 
 def test_a_generator_that_cannot_crank_the_engine_leaves_it_off(sim, cycles):
@@ -167,4 +168,16 @@ def test_switching_both_rules_off_gives_the_plain_rule_base(lib, params, cycles)
     """The study's rule base stays one ``-S`` away: no start costs, no warm-up rule."""
     sim = Simulator(lib, _with_pms(params, coolant_warmup=False, engine_dynamics=False))
     o = sim.run_raw(None, cycles["ftp"], "prius", performance=False).frame().iloc[0]
-    assert o["e_engine_start_j"] == 0 and o["n_starts"] > 0
+    assert o["e_engine_start_j"] == 0 and o["e_engine_inertia_j"] == 0 and o["n_starts"] > 0
+
+
+def test_the_study_scale_acceleration_deviation_is_what_the_trace_shows(sim, cycles):
+    """``accel_dev_mean_abs`` (beside the objective ``accel_dev``): 100 mean |a_req - a_ach| / max a_req."""
+    X = np.array([PRIUS, SLOW], float)
+    r = sim.run(X, cycles["udds"])
+    tr = sim.trace(X, cycles["udds"])
+    for i in range(2):
+        d = tr[tr["design"] == i].iloc[1:]
+        a_req, a_ach = d["a_req_mps2"].to_numpy(), d["a_ach_mps2"].to_numpy()
+        expected = 100 * np.abs(a_req - a_ach).mean() / a_req.max()
+        assert r["accel_dev_mean_abs"].iloc[i] == pytest.approx(expected, rel=1e-9, abs=1e-9)

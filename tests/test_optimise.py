@@ -119,6 +119,7 @@ def stand_in_simulate(X: np.ndarray) -> pd.DataFrame:
     df["n_engine_starts"] = 20.0
     df["e_engine_start_j"] = 20.0 * 4000.0
     df["eta_engine_mean"] = 0.34
+    df["accel_dev_mean_abs"] = 0.2 * df["accel_dev"]
     return df
 
 

@@ -136,10 +136,9 @@ def split_equivalent_mass_kg(row: np.ndarray, c: DriveConfig) -> float:
 
     Wheels ``J_wh / r^2``; motor on the ring ``J_m (i0 / r)^2``; generator on the sun, which at a held
     engine speed (and with the engine stopped) turns at ``-k`` times the ring (Willis), ``J_g (k i0 / r)^2``.
-    The engine's speed is set by the controller, not by the vehicle's, so its inertia does not reflect; its
-    starts are booked by the engine dynamics (``e_engine_start_j``), its speed changes while it runs are bounded
-    by the generator's torque on the carrier's inertia but not yet booked (the cross term of the generator's
-    two motions is left out too).
+    The engine's speed is set by the controller, not by the vehicle's, so its inertia does not reflect: the
+    carrier's own speed changes (engine and generator through Willis) are the engine dynamics'
+    (``e_engine_start_j``, ``e_engine_inertia_j``; the cross term of the generator's two motions is left out).
     Machine inertias scale with the machine's power, like their masses.
     """
     k = row[R_N_R] / row[R_N_S]
@@ -306,6 +305,8 @@ def _book_following(o, v_ref_now, v_ref_next, v0, v_next, v_avg, dt, off_trace_m
     if a_req > 0.0:
         o[L.O_ACC_REQ] += a_req
         o[L.O_ACC_SHORT] += _clean(a_req - (v_next - v0) / dt)
+        o[L.O_ACC_REQ_MAX] = max(o[L.O_ACC_REQ_MAX], a_req)
+    o[L.O_ACC_ABS_ERR] += _clean(abs(a_req - (v_next - v0) / dt))
     err = _clean(abs(v_ref_next - v_next))
     o[L.O_SPEED_ERR_SUM] += err
     o[L.O_MAX_SPEED_ERR] = max(o[L.O_MAX_SPEED_ERR], err)
@@ -352,7 +353,9 @@ def _newton_from(v0, v_e, f_e, slope, sn, cs, dt, v_max, ch: Chassis) -> float:
 
 
 @njit(cache=True)
-def _limited_split(v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st, env, w_from, dw, d, ch, E, M, G):
+def _limited_split(
+    v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st, env, w_from, dw, j_dt, d, ch, E, M, G
+):
     """Solve a force-limited step of the power-split car: the mean speed ``v`` (<= ``v_cap``) at which
     the force the driveline gives at ``v`` (``st``: its state at ``v_req``) buys exactly ``v``.
 
@@ -360,7 +363,8 @@ def _limited_split(v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs,
     previous force-limited step (``v < 0``: none). Consecutive limited steps have nearly the same envelope and
     nearby solutions, so the first guess is the Newton step from that point (else the fixed-point step from
     ``v_req``), the second a Newton step with the slope, then secant steps, until the speed bought is within
-    ``SPEED_TOL``. The engine's speeds stay within ``w_from +/- dw`` (:func:`hevlib.sim.powertrain.hybrid.within_rate`).
+    ``SPEED_TOL``. The engine's speeds stay within ``w_from +/- dw``, its carrier's inertia ``j_dt``
+    (:func:`hevlib.sim.powertrain.hybrid.within_rate`).
     Returns (state, v_disp, v_avg, the envelope point and slope for the next solve)."""
     v_e, f_e, slope = env
     u = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch)
@@ -371,7 +375,7 @@ def _limited_split(v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs,
         v_b = min(max(v_req + h_a, 0.0), v_cap)
     f_b = f_a
     for it in range(12):
-        lim = split.within_rate(split.limits(v_b, d, E, M, G), w_from, dw, d, E, G)
+        lim = split.within_rate(split.limits(v_b, d, E, M, G), w_from, dw, j_dt, d, E, G)
         st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis, p_chg, regen, d, E, M, G)
         f_b = st.f_del
         u = mean_speed_for_force(v0, f_b, sn, cs, dt, ch)
@@ -383,6 +387,24 @@ def _limited_split(v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs,
         else:
             v_next = _secant_step(v_a, h_a, v_b, h_b, v_cap)
         v_a, h_a, f_a, v_b = v_b, h_b, f_b, v_next
+    if abs(h_b) > SPEED_TOL:
+        # the secant steps did not settle (a kink of the envelope, e.g. where the carrier's reach or the
+        # generator's limit takes over): bisect, h(0) >= 0 >= h(v_cap)
+        v_lo, v_hi = 0.0, v_cap
+        for _ in range(64):
+            v_b = 0.5 * (v_lo + v_hi)
+            lim = split.within_rate(split.limits(v_b, d, E, M, G), w_from, dw, j_dt, d, E, G)
+            st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis, p_chg, regen, d, E, M, G)
+            f_b = st.f_del
+            u = mean_speed_for_force(v0, f_b, sn, cs, dt, ch)
+            h_b = u - v_b
+            if abs(h_b) <= SPEED_TOL or v_hi - v_lo <= 1e-12:
+                break
+            if h_b > 0.0:
+                v_lo = v_b
+            else:
+                v_hi = v_b
+        return st, v_b, u, NO_ENVELOPE
     if 1e-9 < abs(v_b - v_a) < 0.5:  # a local secant of the envelope (not the chord from a distant v_req)
         slope = (f_b - f_a) / (v_b - v_a)
     return st, v_b, u, (v_b, f_b, slope)
@@ -454,9 +476,11 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
         lim = split.limits(v_req, d, E, M, G)
         dynamics = c.engine_dynamics
         w_from, dw = w_c, np.inf  # the carrier's reach this step (engine dynamics)
+        j_dt = cdyn.j / dt if dynamics else 0.0
         if dynamics and was_running:
-            dw = cdyn.dw_max
-            lim = split.within_rate(lim, w_from, dw, d, E, G)
+            # the generator's torque at the sun speed the step starts from, on the carrier's inertia
+            dw = dt * (1.0 + k) * torque_limit(sun_speed(w_from, lim.w_r, d.n_r, d.n_s), d.s_gen, G) / cdyn.j
+            lim = split.within_rate(lim, w_from, dw, j_dt, d, E, G)
         t_r_req = split.ring_torque_for_wheel_force(f_cmd, d)
         want, p_target = supervise(
             eng_on, t_state, soc, gr, v0 * 3.6, lim, t_r_req, p_dis, temp[th_.N_BLOCK], th, pc, d, E, M
@@ -476,7 +500,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             else:
                 # a spin-up longer than the step is booked in this step whole (the engine fires at its end)
                 w_from, dw = max(w_c, cdyn.w_fire), cdyn.dw_max * max(1.0 - t_su / dt, 0.0)
-                lim = split.within_rate(lim, w_from, dw, d, E, G)
+                lim = split.within_rate(lim, w_from, dw, j_dt, d, E, G)
         if want != eng_on:
             eng_on = want
             t_state = 0.0
@@ -496,8 +520,8 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             if limited:
                 o[L.O_N_LIMITED] += 1.0
                 st, v_disp, v_avg, env = _limited_split(
-                    v0, v_req, v_req, f_cmd, eng_on, p_dis_d, p_chg_d, regen, sn, cs, dt, st, env, w_from, dw, d, ch,
-                    E, M, G,
+                    v0, v_req, v_req, f_cmd, eng_on, p_dis_d, p_chg_d, regen, sn, cs, dt, st, env, w_from, dw, j_dt,
+                    d, ch, E, M, G,
                 )
             else:
                 v_avg = v_req
@@ -528,10 +552,11 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
         o[L.O_E_LOSS_MOT] += (st.p_m_e - st.t_m * st.w_r) * dt
         o[L.O_E_LOSS_GEN] += (st.p_g_e - st.t_g * st.w_g) * dt + (p_start * dt - e_start)
         o[L.O_E_ENGINE_START] += e_start
+        o[L.O_E_ENGINE_INERTIA] += (st.t_e - st.t_c) * st.w_e * dt
         o[L.O_E_GEN_MECH_IN] += max(-st.t_g * st.w_g, 0.0) * dt
         o[L.O_E_GEN_ELEC_OUT] += max(-st.p_g_e, 0.0) * dt
         # gear-set loss: the engine's ideal ring share minus what reaches (or leaves) the ring
-        o[L.O_E_LOSS_PG] += (st.t_e * k / (1.0 + k) - (st.t_r - st.t_m)) * st.w_r * dt
+        o[L.O_E_LOSS_PG] += (st.t_c * k / (1.0 + k) - (st.t_r - st.t_m)) * st.w_r * dt
         o[L.O_E_LOSS_FD] += (st.t_r * st.w_r - st.f_del * v_disp) * dt
         o[L.O_E_ACC] += st.p_acc * dt
         o[L.O_E_ACC_UNMET] += (d.p_acc_w - st.p_acc) * dt
@@ -564,6 +589,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             tr[t + 1, L.T_T_G] = st.t_g
             tr[t + 1, L.T_P_BATT] = p_batt
             tr[t + 1, L.T_P_ENGINE_DYN] = p_dyn
+            tr[t + 1, L.T_T_INERTIA] = st.t_e - st.t_c
             tr[t + 1, L.T_FUEL] = fuel
             tr[t + 1, L.T_ENG_ON] = 1.0 if st.running else 0.0
             tr[t + 1, L.T_F_PT] = st.f_del

@@ -91,7 +91,7 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
         if kind == 0:
             f_cmd, st = _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G)
             _, _, v_avg, env = _limited_split(
-                v, v, v_lim, f_cmd, ON, p_dis, p_chg, 1.0, 0.0, 1.0, dt, st, env, 0.0, np.inf, d, ch, E, M, G
+                v, v, v_lim, f_cmd, ON, p_dis, p_chg, 1.0, 0.0, 1.0, dt, st, env, 0.0, np.inf, 0.0, d, ch, E, M, G
             )
         else:
             # the gear that gains most speed over the step (a gear running out of revs mid-step loses)

@@ -223,6 +223,12 @@ def responses(res: RunOutput, cycle: Cycle, library: KernelLibrary) -> pd.DataFr
             "eta_engine_mean": np.where(
                 e_fuel > 0, o["e_shaft_fuelled_j"].to_numpy() / np.where(e_fuel > 0, e_fuel, 1.0), 0.0
             ),
+            # the candidate for the study's acceleration deviation whose scale matches its regression best
+            # (benchmarks/accel_dev_review.py): mean |a_req - a_ach| over the cycle's steps / the cycle's peak a_req
+            "accel_dev_mean_abs": 100.0
+            * o["acc_abs_err_sum_mps2"].to_numpy()
+            / np.maximum(o["n_steps"].to_numpy(), 1.0)
+            / np.where(o["acc_req_max_mps2"].to_numpy() > 0, o["acc_req_max_mps2"].to_numpy(), 1.0),
         }
     )
     failed = stalled | (o["dist_m"].to_numpy() < sim.min_distance_share * cycle.distance_m)

@@ -61,6 +61,7 @@ class SplitState(NamedTuple):
     p_acc: float  # accessory power actually served, W
     p_batt: float  # battery terminal power, W (+ discharge)
     t_r: float  # total ring torque, N m
+    t_c: float  # carrier torque into the gear set: the engine's less what accelerates the carrier's inertia, N m
 
 
 class SplitLimits(NamedTuple):
@@ -72,6 +73,8 @@ class SplitLimits(NamedTuple):
     lo: float  # engine speed window (lo > hi: the engine cannot run)
     hi: float
     p_e_max: float  # most engine power at this speed, W
+    w_ref: float  # carrier speed at the start of the step (engine dynamics), rad/s
+    j_dt: float  # carrier inertia over the step, J / dt (0: the carrier's inertia left out), N m s/rad
 
 
 @njit(cache=True, inline="always")
@@ -114,7 +117,7 @@ def limits(v: float, d: SplitDesign, E: EngineArrays, M: MachineArrays, G: Machi
         k = d.n_r / d.n_s
         w_g = sun_speed(hi, w_r, d.n_r, d.n_s)
         p_max = hi * min(max_torque(hi, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
-    return SplitLimits(w_r, torque_limit(w_r, d.s_mot, M), lo, hi, p_max)
+    return SplitLimits(w_r, torque_limit(w_r, d.s_mot, M), lo, hi, p_max, 0.0, 0.0)
 
 
 @njit(cache=True)
@@ -125,29 +128,50 @@ def _engine_on(
     w_r: float,
     t_r_drive: float,
     t_m_cap: float,
+    w_ref: float,
+    j_dt: float,
     d: SplitDesign,
     E: EngineArrays,
     M: MachineArrays,
     G: MachineArrays,
 ):
-    """Operating point with the engine delivering (up to) ``p_e`` on its best-efficiency line."""
+    """Operating point with the engine delivering (up to) ``p_e`` into the gear set on its best-efficiency line.
+
+    The carrier moves from ``w_ref`` to the engine's speed within the step: ``t_acc = j_dt (w_e - w_ref)`` moves
+    the carrier's inertia. As ADVISOR's engine does (its 'effect of inertia'), the engine's torque carries it on
+    top of what the gear set gets, within its full load (what the engine cannot carry, the generator does: the
+    gear set gets less); a slowing carrier's inertia stands in for engine torque, down to none, and what is left
+    runs down in the engine's friction. The gear set gets ``t_c``, which the generator reacts."""
     k = d.n_r / d.n_s
     w_e = min(max(line_speed(p_e, d.s_eng, E), lo), hi)
     w_g = sun_speed(w_e, w_r, d.n_r, d.n_s)
-    t_cap = min(max_torque(w_e, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
+    t_g_cap = (1.0 + k) * torque_limit(w_g, d.s_gen, G)
+    t_max = max_torque(w_e, d.s_eng, E)
+    t_cap = min(t_max, t_g_cap)
     if p_e > t_cap * w_e and w_e < hi:
         # the line's torque is more than the engine (or the generator reacting it) can take here:
         # turn faster to deliver the power with the torque available
         w_e = min(p_e / t_cap, hi)
         w_g = sun_speed(w_e, w_r, d.n_r, d.n_s)
-        t_cap = min(max_torque(w_e, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
-    t_e = min(max(p_e / w_e, 0.0), t_cap)
-    t_g = -t_e / (1.0 + k)
-    t_r_eng = d.eta_pg * t_e * k / (1.0 + k)
+        t_g_cap = (1.0 + k) * torque_limit(w_g, d.s_gen, G)
+        t_max = max_torque(w_e, d.s_eng, E)
+        t_cap = min(t_max, t_g_cap)
+    t_target = min(max(p_e / w_e, 0.0), t_cap)
+    t_acc = j_dt * (w_e - w_ref)
+    if t_acc >= 0.0:
+        t_e = min(t_target + t_acc, t_max)
+        t_c = max(t_e - t_acc, -t_g_cap)
+    else:
+        # the slowing carrier's inertia stands in for the engine's torque; what is left over runs down in the
+        # engine's friction (the gear set gets what was planned)
+        t_e = max(t_target + t_acc, 0.0)
+        t_c = t_target
+    t_g = -t_c / (1.0 + k)
+    t_r_eng = d.eta_pg * t_c * k / (1.0 + k) if t_c >= 0.0 else t_c * k / (1.0 + k) / d.eta_pg
     t_m = min(max(t_r_drive - t_r_eng, -t_m_cap), t_m_cap)
     p_m_e = electric_power(t_m, w_r, d.s_mot, M)
     p_g_e = electric_power(t_g, w_g, d.s_gen, G)
-    return w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e
+    return w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c
 
 
 @njit(cache=True)
@@ -163,6 +187,8 @@ def _engine_power_for_battery(
     w_r: float,
     t_r_drive: float,
     t_m_cap: float,
+    w_ref: float,
+    j_dt: float,
     d: SplitDesign,
     E: EngineArrays,
     M: MachineArrays,
@@ -178,10 +204,10 @@ def _engine_power_for_battery(
     for _ in range(12):
         if abs(p_b - p_a) <= 1.0 or -g_b <= 1.0:
             break
-        p = p_b - g_b * (p_b - p_a) / (g_b - g_a)
+        p = p_b - g_b * (p_b - p_a) / (g_b - g_a) if g_b != g_a else 0.5 * (p_a + p_b)
         if not (min(p_a, p_b) < p < max(p_a, p_b)):
             p = 0.5 * (p_a + p_b)
-        st = _engine_on(p, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G)
+        st = _engine_on(p, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G)
         g = sign * (st[6] + st[7] + d.p_acc_w - target)
         if g > 0.0:
             p_a, g_a = p, g
@@ -197,21 +223,27 @@ def _engine_power_for_battery(
 
 
 @njit(cache=True)
-def _less_circulation(t_e: float, w_g: float, p_m_e: float, p_dis: float, d: SplitDesign, G: MachineArrays):
+def _less_circulation(
+    t_e: float, t_acc: float, w_g: float, p_m_e: float, p_dis: float, d: SplitDesign, G: MachineArrays
+):
     """Largest engine torque (<= ``t_e``) whose motoring generator keeps the battery within ``p_dis``
     (bisection; the generator's draw grows with engine torque); if even none is too much, the
-    accessory load is shed. Returns (t_e, t_g, ring torque from the engine, p_g_e, p_acc)."""
+    accessory load is shed. ``t_acc`` of the engine's torque accelerates the carrier (the rest reaches the gear
+    set). Returns (t_e, t_g, ring torque from the engine, p_g_e, p_acc)."""
     k = d.n_r / d.n_s
     lo, hi = 0.0, t_e
     for _ in range(24):
         mid = 0.5 * (lo + hi)
-        if p_m_e + electric_power(-mid / (1.0 + k), w_g, d.s_gen, G) + d.p_acc_w > p_dis:
+        if p_m_e + electric_power(-(mid - t_acc) / (1.0 + k), w_g, d.s_gen, G) + d.p_acc_w > p_dis:
             hi = mid
         else:
             lo = mid
-    p_g_e = electric_power(-lo / (1.0 + k), w_g, d.s_gen, G)
+    t_g_cap = (1.0 + k) * torque_limit(w_g, d.s_gen, G)
+    t_c = min(max(lo - t_acc, -t_g_cap), t_g_cap)
+    p_g_e = electric_power(-t_c / (1.0 + k), w_g, d.s_gen, G)
     p_acc = max(min(d.p_acc_w, p_dis - p_m_e - p_g_e), 0.0)
-    return lo, -lo / (1.0 + k), d.eta_pg * lo * k / (1.0 + k), p_g_e, p_acc
+    t_r_eng = d.eta_pg * t_c * k / (1.0 + k) if t_c >= 0.0 else t_c * k / (1.0 + k) / d.eta_pg
+    return lo, -t_c / (1.0 + k), t_r_eng, p_g_e, p_acc
 
 
 @njit(cache=True)
@@ -231,9 +263,50 @@ def dispatch(
     """Operating point at the speed of ``lim`` (:func:`limits`) for wheel force ``f_req`` within every limit.
 
     ``p_dis``/``p_chg``: battery discharge/charge power limits (W, >= 0). ``regen_frac``: share of a
+    braking request the driveline may take (the rest is friction braking). A carrier that would need more
+    battery power to move than the battery can give (the generator motoring it up) holds its speed instead.
+    """
+    st = _dispatch(lim, f_req, engine_on, p_e_target, p_dis, p_chg, regen_frac, d, E, M, G)
+    if st.running and lim.j_dt > 0.0 and st.p_batt > p_dis * (1.0 + 1e-9) + 1e-6:
+        w_hold = min(max(lim.w_ref, lim.lo), lim.hi)
+        held = within_rate(lim, w_hold, 0.0, lim.j_dt, d, E, G)
+        st = _dispatch(
+            SplitLimits(lim.w_r, lim.t_m_cap, w_hold, w_hold, held.p_e_max, lim.w_ref, lim.j_dt),
+            f_req,
+            engine_on,
+            min(p_e_target, held.p_e_max),
+            p_dis,
+            p_chg,
+            regen_frac,
+            d,
+            E,
+            M,
+            G,
+        )
+    return st
+
+
+@njit(cache=True)
+def _dispatch(
+    lim: SplitLimits,
+    f_req: float,
+    engine_on: bool,
+    p_e_target: float,
+    p_dis: float,
+    p_chg: float,
+    regen_frac: float,
+    d: SplitDesign,
+    E: EngineArrays,
+    M: MachineArrays,
+    G: MachineArrays,
+) -> SplitState:
+    """Operating point at the speed of ``lim`` (:func:`limits`) for wheel force ``f_req`` within every limit.
+
+    ``p_dis``/``p_chg``: battery discharge/charge power limits (W, >= 0). ``regen_frac``: share of a
     braking request the driveline may take (the rest is friction braking).
     """
-    w_r, t_m_cap, lo, hi = lim.w_r, lim.t_m_cap, lim.lo, lim.hi
+    w_r, t_m_cap, lo, hi, w_ref, j_dt = lim.w_r, lim.t_m_cap, lim.lo, lim.hi, lim.w_ref, lim.j_dt
+    k = d.n_r / d.n_s
     t_r_req = ring_torque_for_wheel_force(f_req, d)
     t_r_drive = t_r_req if t_r_req >= 0.0 else t_r_req * regen_frac
     p_acc = d.p_acc_w
@@ -241,23 +314,41 @@ def dispatch(
 
     if running:
         p_e = p_e_target
-        w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = _engine_on(p_e, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G)
+        w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_on(
+            p_e, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G
+        )
         p_batt = p_m_e + p_g_e + p_acc
         if p_batt > p_dis:
             # more engine power first (battery power falls as engine power rises) ...
             p_hi = lim.p_e_max
             if p_hi > p_e:
-                st = _engine_on(p_hi, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G)
+                st = _engine_on(p_hi, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G)
                 h_hi = st[6] + st[7] + p_acc
                 p_new = (
                     p_hi
                     if h_hi > p_dis
                     else _engine_power_for_battery(
-                        p_e, p_batt - p_dis, p_hi, h_hi - p_dis, 1.0, p_dis, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G
+                        p_e,
+                        p_batt - p_dis,
+                        p_hi,
+                        h_hi - p_dis,
+                        1.0,
+                        p_dis,
+                        lo,
+                        hi,
+                        w_r,
+                        t_r_drive,
+                        t_m_cap,
+                        w_ref,
+                        j_dt,
+                        d,
+                        E,
+                        M,
+                        G,
                     )
                 )
-                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = _engine_on(
-                    p_new, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_on(
+                    p_new, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G
                 )
                 p_batt = p_m_e + p_g_e + p_acc
             if p_batt > p_dis and t_m > 0.0:
@@ -268,17 +359,23 @@ def dispatch(
             if p_batt > p_dis and p_g_e > 0.0:
                 # ... and when the generator motors (power circulation: engine slower than the ring
                 # drags the sun backwards) less engine torque, down to none, then accessories shed
-                t_e, t_g, t_r_eng, p_g_e, p_acc = _less_circulation(t_e, w_g, p_m_e, p_dis, d, G)
+                t_e, t_g, t_r_eng, p_g_e, p_acc = _less_circulation(t_e, t_e - t_c, w_g, p_m_e, p_dis, d, G)
+                t_c = -t_g * (1.0 + k)
             if p_m_e + p_g_e + p_acc > p_dis:
                 # nothing left to cut but the accessories
                 p_acc = max(min(p_acc, p_dis - p_m_e - p_g_e), 0.0)
             p_batt = p_m_e + p_g_e + p_acc
         elif p_batt < -p_chg:
             # less engine power first (battery power rises as engine power falls) ...
-            st0 = _engine_on(0.0, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G)
+            st0 = _engine_on(0.0, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G)
             h0 = st0[6] + st0[7] + p_acc
+            if h0 < -p_chg and j_dt > 0.0:
+                # a slowing carrier's inertia the battery cannot take runs down in the engine's friction instead
+                j_dt = 0.0
+                st0 = _engine_on(0.0, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G)
+                h0 = st0[6] + st0[7] + p_acc
             if h0 < -p_chg:
-                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = st0
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = st0
             else:
                 p_new = _engine_power_for_battery(
                     p_e,
@@ -292,13 +389,15 @@ def dispatch(
                     w_r,
                     t_r_drive,
                     t_m_cap,
+                    w_ref,
+                    j_dt,
                     d,
                     E,
                     M,
                     G,
                 )
-                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e = _engine_on(
-                    p_new, lo, hi, w_r, t_r_drive, t_m_cap, d, E, M, G
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_on(
+                    p_new, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G
                 )
             p_batt = p_m_e + p_g_e + p_acc
             if p_batt < -p_chg and t_m < 0.0:
@@ -338,8 +437,22 @@ def dispatch(
             p_m_e = electric_power(t_m, w_r, d.s_mot, M)
         p_batt = p_m_e + p_g_e + p_acc
         t_r = t_r_eng + t_m
+        t_c = t_e
     return SplitState(
-        wheel_force_for_ring_torque(t_r, d), running, w_e, t_e, w_r, t_m, w_g, t_g, p_m_e, p_g_e, p_acc, p_batt, t_r
+        wheel_force_for_ring_torque(t_r, d),
+        running,
+        w_e,
+        t_e,
+        w_r,
+        t_m,
+        w_g,
+        t_g,
+        p_m_e,
+        p_g_e,
+        p_acc,
+        p_batt,
+        t_r,
+        t_c,
     )
 
 
@@ -351,7 +464,7 @@ class CarrierDynamics(NamedTuple):
     t_spin: float  # most carrier torque the generator can apply (its low-speed torque limit times 1 + k), N m
     t_crank: float  # the engine's resistance while cranked (compression and friction), N m
     w_fire: float  # speed at which the engine fires (fuel on), rad/s
-    dw_max: float  # most carrier speed change in one step (generator's full torque on the inertia), rad/s
+    dw_max: float  # most carrier speed change in one step (generator's low-speed torque on the inertia), rad/s
 
 
 @njit(cache=True, inline="always")
@@ -383,14 +496,17 @@ def start_cost(w0: float, cd: CarrierDynamics) -> tuple[float, float]:
 
 
 @njit(cache=True, inline="always")
-def within_rate(lim: SplitLimits, w_from: float, dw: float, d: SplitDesign, E: EngineArrays, G: MachineArrays):
-    """``lim`` with the engine's speed window cut to ``w_from +/- dw`` (what the carrier can reach this step),
-    its most power re-taken at the new top; ``lim`` itself where the cut leaves no speed (the gear set's
-    window moved away faster than the generator could follow: the generator's speed limit comes first)."""
+def within_rate(
+    lim: SplitLimits, w_from: float, dw: float, j_dt: float, d: SplitDesign, E: EngineArrays, G: MachineArrays
+):
+    """``lim`` for a carrier that turns at ``w_from`` at the start of the step with inertia ``j_dt`` (J / dt): the
+    engine's speed window cut to ``w_from +/- dw`` (what the generator can reach this step), its most power
+    re-taken at the new top; the window uncut where the cut leaves no speed (the gear set's window moved away
+    faster than the generator could follow: the generator's speed limit comes first)."""
     lo, hi = max(lim.lo, w_from - dw), min(lim.hi, w_from + dw)
     if lo > hi or (lo == lim.lo and hi == lim.hi):
-        return lim
+        return SplitLimits(lim.w_r, lim.t_m_cap, lim.lo, lim.hi, lim.p_e_max, w_from, j_dt)
     k = d.n_r / d.n_s
     w_g = sun_speed(hi, lim.w_r, d.n_r, d.n_s)
     p_max = hi * min(max_torque(hi, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
-    return SplitLimits(lim.w_r, lim.t_m_cap, lo, hi, p_max)
+    return SplitLimits(lim.w_r, lim.t_m_cap, lo, hi, p_max, w_from, j_dt)

@@ -5,7 +5,7 @@ in m. The energy terms close the balance
 
     E_FUEL + E_BATT = E_LOSS_ENG + E_LOSS_MOT + E_LOSS_GEN + E_LOSS_PG + E_LOSS_FD + E_LOSS_GB
                       + E_LOSS_CLUTCH + E_LOSS_BATT + E_ACC + E_BRAKE + E_ROAD + E_GRADE + E_KIN_END
-                      + E_MISMATCH + E_ENGINE_START
+                      + E_MISMATCH + E_ENGINE_START + E_ENGINE_INERTIA
 
 (E_BATT: net chemical energy drawn from the battery; E_MISMATCH: what a force-limited step's fixed
 point left unresolved, reported so the tests can bound it). E_ACC is the accessory energy actually
@@ -13,7 +13,9 @@ served; what the accessories asked for and no source could give is E_ACC_UNMET (
 dropped: it is reported as ``accessory_unmet_kwh`` and fails the cycle). E_ENGINE_START is what the
 power-split car's starts cost at the carrier: the spin-up of the carrier's inertia from its speed to firing
 speed plus the crank work on the way, from the battery through the generator; the carrier's kinetic energy
-runs down in the engine's friction when it stops (not recovered), so it is a sink. E_SHAFT_FUELLED is the shaft work of
+runs down in the engine's friction when it stops (not recovered), so it is a sink. E_ENGINE_INERTIA is the
+engine's work on the running carrier's inertia as its speed moves (the share of its torque the gear set does
+not get; negative when the inertia gives it back), booked at each step's speed. E_SHAFT_FUELLED is the shaft work of
 fuelled steps only (the numerator of the fuel-weighted mean engine efficiency).
 """
 
@@ -79,9 +81,12 @@ fuelled steps only (the numerator of the fuel-weighted mean engine efficiency).
     O_T_CAT_END_C,
     O_T_CAT_MAX_C,
     O_E_ENGINE_START,
+    O_E_ENGINE_INERTIA,
     O_E_SHAFT_FUELLED,
-) = range(61)
-N_O = 61
+    O_ACC_ABS_ERR,
+    O_ACC_REQ_MAX,
+) = range(64)
+N_O = 64
 OUT_NAMES = (
     "fuel_g",
     "hc_g",
@@ -143,7 +148,10 @@ OUT_NAMES = (
     "t_cat_end_c",
     "t_cat_max_c",
     "e_engine_start_j",
+    "e_engine_inertia_j",
     "e_shaft_fuelled_j",
+    "acc_abs_err_sum_mps2",
+    "acc_req_max_mps2",
 )
 #: Heat balance of the thermal nodes (hevlib.sim.powertrain.thermal): stored heat change = sources - sinks.
 THERMAL_SOURCES = ("q_cyl_j", "q_exhaust_j", "q_exotherm_j")
@@ -165,6 +173,7 @@ BALANCE_SINKS = (
     "e_kin_end_j",
     "e_mismatch_j",
     "e_engine_start_j",
+    "e_engine_inertia_j",
 )
 
 # ---- trace channels (one row per time step, recorded designs only)
@@ -203,8 +212,9 @@ BALANCE_SINKS = (
     T_CO_TP,
     T_NOX_TP,
     T_P_ENGINE_DYN,
-) = range(34)
-N_T = 34
+    T_T_INERTIA,
+) = range(35)
+N_T = 35
 TRACE_NAMES = (
     "v_ref_mps",
     "v_mps",
@@ -239,5 +249,6 @@ TRACE_NAMES = (
     "hc_tailpipe_g_s",
     "co_tailpipe_g_s",
     "nox_tailpipe_g_s",
-    "p_engine_dyn_w",
+    "p_engine_start_w",
+    "t_eng_inertia_nm",
 )
