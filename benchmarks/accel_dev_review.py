@@ -62,7 +62,9 @@ def main() -> None:
     for col in df:
         y = df[col].to_numpy()
         rho = pd.Series(y).rank().corr(pd.Series(study).rank())
-        out.append({"definition": col, "min": y.min(), "median": np.median(y), "max": y.max(), "spearman vs study": rho})
+        out.append(
+            {"definition": col, "min": y.min(), "median": np.median(y), "max": y.max(), "spearman vs study": rho}
+        )
     print(pd.DataFrame(out).round(3).to_string(index=False))
 
 

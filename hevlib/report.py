@@ -20,7 +20,13 @@ STUDY_HEADLINE = {
     "m_veh": "about 4 % lower",
     "fc": "36-46 % lower",
 }
-_UNITS = {**OBJECTIVE_UNITS, "fc_soc_corrected": "L/100 km", "fc_charge_balanced": "L/100 km", "eta_drivetrain": "-", "t_0_100_s": "s"}
+_UNITS = {
+    **OBJECTIVE_UNITS,
+    "fc_soc_corrected": "L/100 km",
+    "fc_charge_balanced": "L/100 km",
+    "eta_drivetrain": "-",
+    "t_0_100_s": "s",
+}
 
 
 def _fmt(value, digits: int = 3) -> str:
@@ -232,7 +238,7 @@ def _headline(validation: Mapping) -> list[str]:
                     _pct(imp.get("fc_charge_balanced"), "lower"),
                 ],
                 [
-                    f"fuel consumption ({validation['cycle']}, the study's protocol: from SOC 0.7, battery not balanced)",
+                    f"fuel consumption ({validation['cycle']}, the study's protocol: from SOC 0.7, not balanced)",
                     STUDY_HEADLINE["fc"],
                     _pct(imp.get("fc"), "lower"),
                 ],

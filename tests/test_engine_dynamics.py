@@ -43,7 +43,9 @@ def test_a_start_costs_the_spin_up_of_the_reflected_inertia_plus_the_crank_work(
     # from a spun carrier only the rest of the way; nothing above firing speed; inf when it cannot be cranked
     e2, t2 = start_cost(60.0, cd)
     t2_ref = 0.47 * (cd.w_fire - 60.0) / 158.0
-    assert e2 == pytest.approx(0.5 * 0.47 * (cd.w_fire**2 - 60.0**2) + 40.0 * 0.5 * (60.0 + cd.w_fire) * t2_ref, rel=1e-12)
+    assert e2 == pytest.approx(
+        0.5 * 0.47 * (cd.w_fire**2 - 60.0**2) + 40.0 * 0.5 * (60.0 + cd.w_fire) * t2_ref, rel=1e-12
+    )
     assert start_cost(130.0, cd) == (0.0, 0.0)
     assert start_cost(0.0, cd._replace(t_spin=39.0)) == (np.inf, np.inf)
 
@@ -53,7 +55,9 @@ def test_the_carrier_reflects_engine_and_generator_through_willis(sim, lib):
     k = 78 / 30
     s_eng, s_gen = 43.0 / lib.engine_hybrid.peak_power_kw, 15.0 / lib.generator.peak_power_kw
     ps = lib.power_split
-    assert cd.j == pytest.approx(s_eng * ps.engine_startup_inertia_kg_m2 + s_gen * lib.generator.inertia_kg_m2 * (1 + k) ** 2)
+    assert cd.j == pytest.approx(
+        s_eng * ps.engine_startup_inertia_kg_m2 + s_gen * lib.generator.inertia_kg_m2 * (1 + k) ** 2
+    )
     assert cd.t_spin == pytest.approx((1 + k) * s_gen * lib.generator.max_torque_nm[0])
     assert cd.t_crank == pytest.approx(s_eng * ps.engine_crank_torque_nm)
     assert cd.w_fire == pytest.approx(1200 * np.pi / 30)

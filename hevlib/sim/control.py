@@ -125,9 +125,10 @@ def supervise(
 
     Order of authority: physics first (the engine cannot run when its speed window is empty; it must run
     whenever it can and the battery alone cannot carry the traction or the accessory load), then the
-    fuzzy rule base and the coolant warm-up rule (a cold engine stays on), then the minimum on/off times. The engine is fuel-cut while braking; an engine that
-    is off while the ring turns fast enough to overspeed a stopped generator is spun by the gear set with
-    its fuel cut (:func:`hevlib.sim.powertrain.hybrid.dispatch`), not fired.
+    fuzzy rule base and the coolant warm-up rule (a cold engine stays on), then the minimum on/off times. The
+    engine is fuel-cut while braking once warm; an engine that is off while the ring turns fast enough to
+    overspeed a stopped generator is spun by the gear set with its fuel cut
+    (:func:`hevlib.sim.powertrain.hybrid.dispatch`), not fired.
     Target power: ring demand plus accessories plus a charging share (fuzzy charge degree or SOC
     below target), floored at ``p_min_w``, capped by what the engine can give; boost = full power.
     """

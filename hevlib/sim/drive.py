@@ -25,8 +25,8 @@ from hevlib.sim.powertrain.battery import current_for_power, power_limits
 from hevlib.sim.powertrain.borrow import borrowed
 from hevlib.sim.powertrain.engine import EngineArrays, max_torque, rates
 from hevlib.sim.powertrain.lookup import cell, interp1_np
-from hevlib.sim.powertrain.planetary import sun_speed
 from hevlib.sim.powertrain.machines import MachineArrays, electric_power, torque_limit
+from hevlib.sim.powertrain.planetary import sun_speed
 from hevlib.sim.powertrain.scaling import in_series
 from hevlib.sim.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_force
 
@@ -520,8 +520,27 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             if limited:
                 o[L.O_N_LIMITED] += 1.0
                 st, v_disp, v_avg, env = _limited_split(
-                    v0, v_req, v_req, f_cmd, eng_on, p_dis_d, p_chg_d, regen, sn, cs, dt, st, env, w_from, dw, j_dt,
-                    d, ch, E, M, G,
+                    v0,
+                    v_req,
+                    v_req,
+                    f_cmd,
+                    eng_on,
+                    p_dis_d,
+                    p_chg_d,
+                    regen,
+                    sn,
+                    cs,
+                    dt,
+                    st,
+                    env,
+                    w_from,
+                    dw,
+                    j_dt,
+                    d,
+                    ch,
+                    E,
+                    M,
+                    G,
                 )
             else:
                 v_avg = v_req

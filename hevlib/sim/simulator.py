@@ -28,17 +28,16 @@ from hevlib.components import ComponentLibrary
 from hevlib.cycles import Cycle
 from hevlib.design import BOOL_RESPONSES, CHARGE_BALANCE_RESPONSES, DESIGN_VARS, OBJECTIVES, RESPONSES
 from hevlib.params import Params
-from hevlib.sim.drive import drive_conventional, drive_hybrid
+from hevlib.sim.drive import R_SOC0, drive_conventional, drive_hybrid
 from hevlib.sim.executor import LocalExecutor, executor_for
 from hevlib.sim.performance import performance_batch
-from hevlib.sim.drive import R_SOC0
 from hevlib.sim.powertrain.layout import (
     BALANCE_SINKS,
     N_O,
+    N_T,
     O_E_BATT,
     O_E_FUEL,
     O_SOC_END,
-    N_T,
     OUT_NAMES,
     THERMAL_SINKS,
     THERMAL_SOURCES,
@@ -407,9 +406,7 @@ class Simulator:
             )
         if not frames:
             cols = RESPONSES + (CHARGE_BALANCE_RESPONSES if charge_balanced else ())
-            return pd.DataFrame(
-                {k: pd.Series(dtype=bool if k in BOOL_RESPONSES else float) for k in cols}
-            )
+            return pd.DataFrame({k: pd.Series(dtype=bool if k in BOOL_RESPONSES else float) for k in cols})
         return pd.concat(frames, ignore_index=True)
 
     def drive(self, vehicle: Vehicle, cycle: Cycle, *, charge_balanced: bool = False) -> tuple[RunOutput, pd.DataFrame]:

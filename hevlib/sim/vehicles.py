@@ -26,13 +26,13 @@ from hevlib.sim.drive import (
     N_R,
     R_I0,
     R_MASS,
-    R_SOC0,
     R_N_BAT,
     R_N_R,
     R_N_S,
     R_S_ENG,
     R_S_GEN,
     R_S_MOT,
+    R_SOC0,
     BatteryArrays,
     DriveConfig,
     KernelVehicle,
@@ -419,7 +419,9 @@ class Vehicle:
     def take(self, index: np.ndarray) -> Vehicle:
         """The vehicles at ``index`` (integer positions or a boolean mask), as a batch of their own."""
         rows = np.ascontiguousarray(self.kernel.rows[index])
-        return Vehicle(self.kind, self.design.iloc[index].reset_index(drop=True), self.kernel._replace(rows=rows), self.library)
+        return Vehicle(
+            self.kind, self.design.iloc[index].reset_index(drop=True), self.kernel._replace(rows=rows), self.library
+        )
 
     def with_step(self, dt_s: float) -> Vehicle:
         """The same vehicles driven at a time step of ``dt_s`` (the drive settings' default is 1 s)."""

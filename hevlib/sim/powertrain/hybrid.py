@@ -121,21 +121,9 @@ def limits(v: float, d: SplitDesign, E: EngineArrays, M: MachineArrays, G: Machi
 
 
 @njit(cache=True)
-def _engine_on(
-    p_e: float,
-    lo: float,
-    hi: float,
-    w_r: float,
-    t_r_drive: float,
-    t_m_cap: float,
-    w_ref: float,
-    j_dt: float,
-    d: SplitDesign,
-    E: EngineArrays,
-    M: MachineArrays,
-    G: MachineArrays,
-):
-    """Operating point with the engine delivering (up to) ``p_e`` into the gear set on its best-efficiency line.
+def _engine_on(p_e: float, lim: SplitLimits, t_r_drive: float, d: SplitDesign, E: EngineArrays, M: MachineArrays, G):
+    """Operating point with the engine delivering (up to) ``p_e`` into the gear set on its best-efficiency line,
+    within the speed window of ``lim``.
 
     The carrier moves from ``w_ref`` to the engine's speed within the step: ``t_acc = j_dt (w_e - w_ref)`` moves
     the carrier's inertia. As ADVISOR's engine does (its 'effect of inertia'), the engine's torque carries it on
@@ -143,6 +131,7 @@ def _engine_on(
     gear set gets less); a slowing carrier's inertia stands in for engine torque, down to none, and what is left
     runs down in the engine's friction. The gear set gets ``t_c``, which the generator reacts."""
     k = d.n_r / d.n_s
+    lo, hi, w_r, t_m_cap, w_ref, j_dt = lim.lo, lim.hi, lim.w_r, lim.t_m_cap, lim.w_ref, lim.j_dt
     w_e = min(max(line_speed(p_e, d.s_eng, E), lo), hi)
     w_g = sun_speed(w_e, w_r, d.n_r, d.n_s)
     t_g_cap = (1.0 + k) * torque_limit(w_g, d.s_gen, G)
@@ -182,13 +171,8 @@ def _engine_power_for_battery(
     g_b: float,
     sign: float,
     target: float,
-    lo: float,
-    hi: float,
-    w_r: float,
+    lim: SplitLimits,
     t_r_drive: float,
-    t_m_cap: float,
-    w_ref: float,
-    j_dt: float,
     d: SplitDesign,
     E: EngineArrays,
     M: MachineArrays,
@@ -207,7 +191,7 @@ def _engine_power_for_battery(
         p = p_b - g_b * (p_b - p_a) / (g_b - g_a) if g_b != g_a else 0.5 * (p_a + p_b)
         if not (min(p_a, p_b) < p < max(p_a, p_b)):
             p = 0.5 * (p_a + p_b)
-        st = _engine_on(p, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G)
+        st = _engine_on(p, lim, t_r_drive, d, E, M, G)
         g = sign * (st[6] + st[7] + d.p_acc_w - target)
         if g > 0.0:
             p_a, g_a = p, g
@@ -270,42 +254,15 @@ def dispatch(
     if st.running and lim.j_dt > 0.0 and st.p_batt > p_dis * (1.0 + 1e-9) + 1e-6:
         w_hold = min(max(lim.w_ref, lim.lo), lim.hi)
         held = within_rate(lim, w_hold, 0.0, lim.j_dt, d, E, G)
-        st = _dispatch(
-            SplitLimits(lim.w_r, lim.t_m_cap, w_hold, w_hold, held.p_e_max, lim.w_ref, lim.j_dt),
-            f_req,
-            engine_on,
-            min(p_e_target, held.p_e_max),
-            p_dis,
-            p_chg,
-            regen_frac,
-            d,
-            E,
-            M,
-            G,
-        )
+        lim = SplitLimits(lim.w_r, lim.t_m_cap, w_hold, w_hold, held.p_e_max, lim.w_ref, lim.j_dt)
+        st = _dispatch(lim, f_req, engine_on, min(p_e_target, held.p_e_max), p_dis, p_chg, regen_frac, d, E, M, G)
     return st
 
 
 @njit(cache=True)
-def _dispatch(
-    lim: SplitLimits,
-    f_req: float,
-    engine_on: bool,
-    p_e_target: float,
-    p_dis: float,
-    p_chg: float,
-    regen_frac: float,
-    d: SplitDesign,
-    E: EngineArrays,
-    M: MachineArrays,
-    G: MachineArrays,
-) -> SplitState:
-    """Operating point at the speed of ``lim`` (:func:`limits`) for wheel force ``f_req`` within every limit.
-
-    ``p_dis``/``p_chg``: battery discharge/charge power limits (W, >= 0). ``regen_frac``: share of a
-    braking request the driveline may take (the rest is friction braking).
-    """
-    w_r, t_m_cap, lo, hi, w_ref, j_dt = lim.w_r, lim.t_m_cap, lim.lo, lim.hi, lim.w_ref, lim.j_dt
+def _dispatch(lim, f_req, engine_on, p_e_target, p_dis, p_chg, regen_frac, d, E, M, G) -> SplitState:
+    """:func:`dispatch` for a carrier free to move within the window of ``lim`` (arguments as there)."""
+    w_r, t_m_cap, lo, hi = lim.w_r, lim.t_m_cap, lim.lo, lim.hi
     k = d.n_r / d.n_s
     t_r_req = ring_torque_for_wheel_force(f_req, d)
     t_r_drive = t_r_req if t_r_req >= 0.0 else t_r_req * regen_frac
@@ -314,42 +271,22 @@ def _dispatch(
 
     if running:
         p_e = p_e_target
-        w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_on(
-            p_e, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G
-        )
+        w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_on(p_e, lim, t_r_drive, d, E, M, G)
         p_batt = p_m_e + p_g_e + p_acc
         if p_batt > p_dis:
             # more engine power first (battery power falls as engine power rises) ...
             p_hi = lim.p_e_max
             if p_hi > p_e:
-                st = _engine_on(p_hi, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G)
+                st = _engine_on(p_hi, lim, t_r_drive, d, E, M, G)
                 h_hi = st[6] + st[7] + p_acc
                 p_new = (
                     p_hi
                     if h_hi > p_dis
                     else _engine_power_for_battery(
-                        p_e,
-                        p_batt - p_dis,
-                        p_hi,
-                        h_hi - p_dis,
-                        1.0,
-                        p_dis,
-                        lo,
-                        hi,
-                        w_r,
-                        t_r_drive,
-                        t_m_cap,
-                        w_ref,
-                        j_dt,
-                        d,
-                        E,
-                        M,
-                        G,
+                        p_e, p_batt - p_dis, p_hi, h_hi - p_dis, 1.0, p_dis, lim, t_r_drive, d, E, M, G
                     )
                 )
-                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_on(
-                    p_new, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G
-                )
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_on(p_new, lim, t_r_drive, d, E, M, G)
                 p_batt = p_m_e + p_g_e + p_acc
             if p_batt > p_dis and t_m > 0.0:
                 # ... then less motor torque
@@ -367,38 +304,20 @@ def _dispatch(
             p_batt = p_m_e + p_g_e + p_acc
         elif p_batt < -p_chg:
             # less engine power first (battery power rises as engine power falls) ...
-            st0 = _engine_on(0.0, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G)
+            st0 = _engine_on(0.0, lim, t_r_drive, d, E, M, G)
             h0 = st0[6] + st0[7] + p_acc
-            if h0 < -p_chg and j_dt > 0.0:
+            if h0 < -p_chg and lim.j_dt > 0.0:
                 # a slowing carrier's inertia the battery cannot take runs down in the engine's friction instead
-                j_dt = 0.0
-                st0 = _engine_on(0.0, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G)
+                lim = SplitLimits(lim.w_r, lim.t_m_cap, lo, hi, lim.p_e_max, lim.w_ref, 0.0)
+                st0 = _engine_on(0.0, lim, t_r_drive, d, E, M, G)
                 h0 = st0[6] + st0[7] + p_acc
             if h0 < -p_chg:
                 w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = st0
             else:
                 p_new = _engine_power_for_battery(
-                    p_e,
-                    -(p_batt + p_chg),
-                    0.0,
-                    -(h0 + p_chg),
-                    -1.0,
-                    -p_chg,
-                    lo,
-                    hi,
-                    w_r,
-                    t_r_drive,
-                    t_m_cap,
-                    w_ref,
-                    j_dt,
-                    d,
-                    E,
-                    M,
-                    G,
+                    p_e, -(p_batt + p_chg), 0.0, -(h0 + p_chg), -1.0, -p_chg, lim, t_r_drive, d, E, M, G
                 )
-                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_on(
-                    p_new, lo, hi, w_r, t_r_drive, t_m_cap, w_ref, j_dt, d, E, M, G
-                )
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_on(p_new, lim, t_r_drive, d, E, M, G)
             p_batt = p_m_e + p_g_e + p_acc
             if p_batt < -p_chg and t_m < 0.0:
                 # ... then less regenerative torque (friction brakes take the rest)
