@@ -201,8 +201,9 @@ def pack_state(soc: float, n_bat: float, B: BatteryArrays) -> tuple[float, float
 
 
 @njit(cache=True, inline="always")
-def pack_power_limits(ocv: float, r_d: float, r_c: float, soc: float, n_bat: float, c: DriveConfig):
-    """(max discharge, max charge) terminal power of the pack in state (``ocv``, ``r_d``, ``r_c``) at ``soc``, W."""
+def pack_power_limits(ocv: float, r_d: float, r_c: float, soc: float, soc_floor: float, n_bat: float, c: DriveConfig):
+    """(max discharge, max charge) terminal power of the pack in state (``ocv``, ``r_d``, ``r_c``) at ``soc``, W,
+    discharging down to ``soc_floor`` (the controller's window: ``c.soc_min``)."""
     return power_limits(
         ocv,
         r_d,
@@ -211,7 +212,7 @@ def pack_power_limits(ocv: float, r_d: float, r_c: float, soc: float, n_bat: flo
         in_series(c.v_max_mod, n_bat),
         c.i_max_a,
         soc,
-        c.soc_min,
+        soc_floor,
         c.soc_max,
         c.cap_as,
         c.eta_c,
@@ -222,7 +223,7 @@ def pack_power_limits(ocv: float, r_d: float, r_c: float, soc: float, n_bat: flo
 @njit(cache=True, inline="always")
 def pack_limits(soc: float, n_bat: float, c: DriveConfig, B: BatteryArrays) -> tuple[float, float]:
     ocv, r_d, r_c = pack_state(soc, n_bat, B)
-    return pack_power_limits(ocv, r_d, r_c, soc, n_bat, c)
+    return pack_power_limits(ocv, r_d, r_c, soc, c.soc_min, n_bat, c)
 
 
 @njit(cache=True, inline="always")
@@ -453,7 +454,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
         v_ref_next = v_ref[t + 1]
         v_tgt = min(v_ref_next, v_lim)
         ocv, r_d, r_c = pack_state(soc, n_bat, B)
-        p_dis, p_chg = pack_power_limits(ocv, r_d, r_c, soc, n_bat, c)
+        p_dis, p_chg = pack_power_limits(ocv, r_d, r_c, soc, c.soc_min, n_bat, c)
         stationary = v0 <= 1e-9 and v_tgt <= 1e-9
         if stationary and not key_on[t]:
             # prescribed key-off (e.g. the FTP soak): nothing runs, no accessory load
@@ -486,6 +487,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             eng_on, t_state, soc, gr, v0 * 3.6, lim, t_r_req, p_dis, temp[th_.N_BLOCK], th, pc, d, E, M
         )
         e_start = t_su = p_start = 0.0
+        lim_off = lim  # the window without a start (a start narrows it to the carrier's reach from firing speed)
         if dynamics and want and not was_running:
             # a start: the generator spins the carrier from its speed to firing speed against the crank torque,
             # at full torque, from the battery (its losses at the mean sun speed of the spin-up on top)
@@ -494,64 +496,77 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
                 t_gs = cdyn.t_spin / (1.0 + k)
                 w_gs = sun_speed(0.5 * (w_c + cdyn.w_fire), lim.w_r, d.n_r, d.n_s)
                 p_start = (e_start + (electric_power(t_gs, w_gs, d.s_gen, G) - t_gs * w_gs) * t_su) / dt
-            if e_start == np.inf or p_start > p_dis:
-                # the generator cannot overcome the crank torque, or the battery cannot give the crank power
+            if e_start == np.inf or p_start > pack_power_limits(ocv, r_d, r_c, soc, 0.0, n_bat, c)[0]:
+                # the generator cannot overcome the crank torque, or the pack (its voltage and current, not the
+                # controller's SOC window: the engine pays the crank energy back within the step) cannot crank
                 want, p_target, e_start, t_su, p_start = False, 0.0, 0.0, 0.0, 0.0
             else:
-                # a spin-up longer than the step is booked in this step whole (the engine fires at its end)
-                w_from, dw = max(w_c, cdyn.w_fire), cdyn.dw_max * max(1.0 - t_su / dt, 0.0)
+                # the spin-up is booked within its step (0.1-0.4 s for most designs; a slower one is compressed
+                # into the step), and from firing speed the carrier moves as the generator's torque allows
+                w_from, dw = max(w_c, cdyn.w_fire), cdyn.dw_max
                 lim = split.within_rate(lim, w_from, dw, j_dt, d, E, G)
+        t_state_kept = t_state
         if want != eng_on:
             eng_on = want
             t_state = 0.0
-        # the start's battery power is held back from what the dispatch may use
-        p_dis_d, p_chg_d = p_dis - p_start, p_chg + p_start
-        st = split.dispatch(lim, f_cmd, eng_on, p_target, p_dis_d, p_chg_d, regen, d, E, M, G)
-        v_disp = v_req
-        f_brake = 0.0
-        limited = not stationary and f_req > 0.0 and st.f_del < f_req - 1e-6 * max(1.0, f_req)
-        if stationary:
-            v_avg = 0.0
-        elif limited:
-            # the driver floors it: engine at full power, then the speed this force buys (fixed point)
-            if eng_on and p_target < lim.p_e_max:
-                st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis_d, p_chg_d, regen, d, E, M, G)
-                limited = st.f_del < f_req - 1e-6 * max(1.0, f_req)
-            if limited:
-                o[L.O_N_LIMITED] += 1.0
-                st, v_disp, v_avg, env = _limited_split(
-                    v0,
-                    v_req,
-                    v_req,
-                    f_cmd,
-                    eng_on,
-                    p_dis_d,
-                    p_chg_d,
-                    regen,
-                    sn,
-                    cs,
-                    dt,
-                    st,
-                    env,
-                    w_from,
-                    dw,
-                    j_dt,
-                    d,
-                    ch,
-                    E,
-                    M,
-                    G,
-                )
+        for attempt in range(2):
+            # the start's battery power is held back from what the dispatch may use (below zero: the engine
+            # charges it back within the step, so the controller's SOC window holds)
+            p_dis_d, p_chg_d = p_dis - p_start, p_chg + p_start
+            st = split.dispatch(lim, f_cmd, eng_on, p_target, p_dis_d, p_chg_d, regen, d, E, M, G)
+            v_disp = v_req
+            f_brake = 0.0
+            limited = not stationary and f_req > 0.0 and st.f_del < f_req - 1e-6 * max(1.0, f_req)
+            if stationary:
+                v_avg = 0.0
+            elif limited:
+                # the driver floors it: engine at full power, then the speed this force buys (fixed point)
+                if eng_on and p_target < lim.p_e_max:
+                    st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis_d, p_chg_d, regen, d, E, M, G)
+                    limited = st.f_del < f_req - 1e-6 * max(1.0, f_req)
+                if limited:
+                    st, v_disp, v_avg, env = _limited_split(
+                        v0,
+                        v_req,
+                        v_req,
+                        f_cmd,
+                        eng_on,
+                        p_dis_d,
+                        p_chg_d,
+                        regen,
+                        sn,
+                        cs,
+                        dt,
+                        st,
+                        env,
+                        w_from,
+                        dw,
+                        j_dt,
+                        d,
+                        ch,
+                        E,
+                        M,
+                        G,
+                    )
+                else:
+                    v_avg = v_req
+                    f_brake = f_req - st.f_del
             else:
                 v_avg = v_req
                 f_brake = f_req - st.f_del
-        else:
-            v_avg = v_req
-            f_brake = f_req - st.f_del
+            if attempt == 0 and p_start > 0.0 and st.running and st.p_batt + p_start > p_dis * (1.0 + 1e-9) + 1e-6:
+                # the engine cannot pay the crank energy back within the pack's window this step: no start yet
+                eng_on, t_state, p_target, e_start, p_start, lim = OFF, t_state_kept, 0.0, 0.0, 0.0, lim_off
+                continue
+            break
+        if limited:
+            o[L.O_N_LIMITED] += 1.0
         v_next = max(2.0 * v_avg - v0, 0.0)
-        # ---- the carrier's dynamics: the start (booked above) and the running engine's speed change, both from
-        # the battery through the generator; a stop lets the carrier run down in the engine's friction
-        if st.running and not was_running:
+        # ---- the start: from the battery through the generator, if the engine runs after all (a force-limited
+        # step may end at a speed where it cannot); its speed changes while it runs are in the dispatch
+        if not st.running:
+            e_start = p_start = 0.0
+        elif not was_running:
             o[L.O_N_STARTS] += 1.0
         p_dyn = p_start
         p_batt = st.p_batt + p_dyn

@@ -248,14 +248,17 @@ def dispatch(
 
     ``p_dis``/``p_chg``: battery discharge/charge power limits (W, >= 0). ``regen_frac``: share of a
     braking request the driveline may take (the rest is friction braking). A carrier that would need more
-    battery power to move than the battery can give (the generator motoring it up) holds its speed instead.
+    battery power to move than the battery can give (the generator motoring it up) holds its speed instead,
+    where holding asks less of the battery.
     """
     st = _dispatch(lim, f_req, engine_on, p_e_target, p_dis, p_chg, regen_frac, d, E, M, G)
     if st.running and lim.j_dt > 0.0 and st.p_batt > p_dis * (1.0 + 1e-9) + 1e-6:
         w_hold = min(max(lim.w_ref, lim.lo), lim.hi)
         held = within_rate(lim, w_hold, 0.0, lim.j_dt, d, E, G)
         lim = SplitLimits(lim.w_r, lim.t_m_cap, w_hold, w_hold, held.p_e_max, lim.w_ref, lim.j_dt)
-        st = _dispatch(lim, f_req, engine_on, min(p_e_target, held.p_e_max), p_dis, p_chg, regen_frac, d, E, M, G)
+        st_h = _dispatch(lim, f_req, engine_on, min(p_e_target, held.p_e_max), p_dis, p_chg, regen_frac, d, E, M, G)
+        if st_h.p_batt < st.p_batt:
+            st = st_h
     return st
 
 
