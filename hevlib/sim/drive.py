@@ -325,6 +325,12 @@ def _book_following(o, v_ref_now, v_ref_next, v0, v_next, v_avg, dt, off_trace_m
 
 
 @njit(cache=True, inline="always")
+def _falls_short(f_del: float, f_req: float) -> bool:
+    """A traction step whose delivered force falls short of the request (a force-limited step)."""
+    return f_req > 0.0 and f_del < f_req - 1e-6 * max(1.0, f_req)
+
+
+@njit(cache=True, inline="always")
 def _over(x: float, cap: float) -> bool:
     return x > cap * (1.0 + LIMIT_TOL) + 1e-12
 
@@ -516,14 +522,14 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             st = split.dispatch(lim, f_cmd, eng_on, p_target, p_dis_d, p_chg_d, regen, d, E, M, G)
             v_disp = v_req
             f_brake = 0.0
-            limited = not stationary and f_req > 0.0 and st.f_del < f_req - 1e-6 * max(1.0, f_req)
+            limited = not stationary and _falls_short(st.f_del, f_req)
             if stationary:
                 v_avg = 0.0
             elif limited:
                 # the driver floors it: engine at full power, then the speed this force buys (fixed point)
                 if eng_on and p_target < lim.p_e_max:
                     st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis_d, p_chg_d, regen, d, E, M, G)
-                    limited = st.f_del < f_req - 1e-6 * max(1.0, f_req)
+                    limited = _falls_short(st.f_del, f_req)
                 if limited:
                     st, v_disp, v_avg, env = _limited_split(
                         v0,
@@ -726,7 +732,7 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
         st = conv.dispatch(v_req, f_cmd, ratios[gear], d, E)
         v_disp = v_req
         f_brake = 0.0
-        limited = not stationary and f_req > 0.0 and st.f_del < f_req - 1e-6 * max(1.0, f_req)
+        limited = not stationary and _falls_short(st.f_del, f_req)
         if stationary:
             v_avg = 0.0
         elif limited:
