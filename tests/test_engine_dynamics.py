@@ -169,7 +169,7 @@ def test_the_conventional_car_balances_on_its_first_run(sim, cycles):
 
 def test_switching_both_rules_off_gives_the_plain_rule_base(lib, params, cycles):
     """The study's rule base stays one ``-S`` away: no start costs, no warm-up rule."""
-    sim = Simulator(lib, _with_pms(params, coolant_warmup=False, engine_dynamics=False))
+    sim = Simulator(lib, _with_pms(params, coolant_warmup=False, engine_dynamics=False, full_power_above_kw=None))
     o = sim.run_raw(None, cycles["ftp"], "prius", performance=False).frame().iloc[0]
     assert o["e_engine_start_j"] == 0 and o["e_engine_inertia_j"] == 0 and o["n_starts"] > 0
 
@@ -184,3 +184,18 @@ def test_the_study_scale_acceleration_deviation_is_what_the_trace_shows(sim, cyc
         a_req, a_ach = d["a_req_mps2"].to_numpy(), d["a_ach_mps2"].to_numpy()
         expected = 100 * np.abs(a_req - a_ach).mean() / a_req.max()
         assert r["accel_dev_mean_abs"].iloc[i] == pytest.approx(expected, rel=1e-9, abs=1e-9)
+
+
+def test_from_25_kw_of_road_power_a_running_engine_gives_full_power(lib, params, cycles):
+    """ADVISOR's 'max engine if pwr req>limit': the engine goes to the top of its window at full torque."""
+    shares = {}
+    for rule in (25.0, None):
+        sim = Simulator(lib, _with_pms(params, full_power_above_kw=rule))
+        tr = sim.trace(None, cycles["us06"], "prius")
+        v_mean = 0.5 * (tr["v_mps"] + tr["v_mps"].shift(1).fillna(0.0))
+        p_road = (tr["f_pt_n"] + tr["f_brake_n"]) * v_mean
+        hard = (tr["eng_on"] > 0.5) & (p_road >= 27e3)  # above 25 kW at the ring
+        full = tr["t_eng_nm"] >= 0.999 * tr["t_eng_max_nm"]
+        assert hard.sum() > 20
+        shares[rule] = float(full[hard].mean())
+    assert shares[25.0] == 1.0 > shares[None]  # without the rule the rule base leaves some of them below

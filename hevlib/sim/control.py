@@ -96,6 +96,7 @@ class PmsConfig(NamedTuple):
     soc_min: float
     soc_high: float  # no charging from the engine above this SOC
     t_warmup_c: float  # coolant below this: the engine stays on until warm (-inf: rule off)
+    p_full_w: float  # road power at or above which a running engine is asked for full power (inf: rule off)
 
 
 def thresholds(pms) -> np.ndarray:
@@ -130,7 +131,8 @@ def supervise(
     overspeed a stopped generator is spun by the gear set with its fuel cut
     (:func:`hevlib.sim.powertrain.hybrid.dispatch`), not fired.
     Target power: ring demand plus accessories plus a charging share (fuzzy charge degree or SOC
-    below target), floored at ``p_min_w``, capped by what the engine can give; boost = full power.
+    below target), floored at ``p_min_w``, capped by what the engine can give; boost, or road power at or
+    above ``p_full_w`` (ADVISOR's Prius), = full power.
     """
     w_r, t_m_cap = lim.w_r, lim.t_m_cap
     can_run = lim.lo <= lim.hi
@@ -160,7 +162,9 @@ def supervise(
     if not want:
         return False, 0.0
     p_max = lim.p_e_max
-    if boost_deg > 0.5:
+    if boost_deg > 0.5 or t_r_req * w_r >= pc.p_full_w:
+        # boost (rule 5), or ADVISOR's 'max engine if pwr req>limit' (lib_controls.mdl, <vc> prius): from 25 kW
+        # of road power the engine runs at the top of its window at full torque
         return True, p_max
     p_rated = d.s_eng * E.line_p[-1]
     soc_deficit = min(max((pc.soc_target - soc) / max(pc.soc_target - pc.soc_min, 1e-9), 0.0), 1.0)

@@ -303,6 +303,7 @@ class KernelLibrary:
                 sim.soc_min,
                 pms.soc_high.value,
                 lib.power_split.coolant_warmup_temperature_c if pms.coolant_warmup else -np.inf,
+                pms.full_power_above_kw * 1e3 if pms.full_power_above_kw is not None else np.inf,
             ),
             configs=configs,
             thermal=thermal,
