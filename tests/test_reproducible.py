@@ -41,7 +41,7 @@ def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path
     assert status == "", status
     shown = subprocess.run(["dvc", "metrics", "show"], cwd=clone, env=env, capture_output=True, text=True)
     lines = shown.stdout.splitlines()
-    assert shown.returncode == 0 and len(lines) == 2, shown.stdout + shown.stderr  # header + headline.json
+    assert shown.returncode == 0 and len(lines) == 2, shown.stdout + shown.stderr  # header + answer.json
     assert max(map(len, lines)) <= 120, shown.stdout  # fits a terminal
 
     # the README's way back from an experiment: git restores params, dvc.lock and reports; DVC the pictures

@@ -21,6 +21,7 @@ from hevlib.params import ScreenParams
 from hevlib.pareto import select_designs
 from hevlib.report import build_summary
 from hevlib.validation import (
+    ANSWER_KEYS,
     IMPROVEMENT_RESPONSES,
     best_design,
     improvement,
@@ -261,6 +262,8 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
         "p_eng_kw": metrics["mean_p_eng_kw"]["all"],
         "n_picks": len(res.selected),
     }
+    short = json.loads(Path("reports/answer.json").read_text())  # the declared DVC metric: short keys
+    assert short == {ANSWER_KEYS[k]: v for k, v in head.items()} and len(set(short)) == len(head)
     summary = Path("reports/summary.md").read_text()
     for png in ("improvement_ftp.png", "improvement_hwfet.png", "traces_ftp.png"):
         assert Path(f"reports/plots/validation/{png}").stat().st_size > 0
