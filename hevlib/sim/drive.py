@@ -574,8 +574,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             e_start = p_start = 0.0
         elif not was_running:
             o[L.O_N_STARTS] += 1.0
-        p_dyn = p_start
-        p_batt = st.p_batt + p_dyn
+        p_batt = st.p_batt + p_start
         # ---- battery
         i_a = current_for_power(p_batt, ocv, r_d, r_c)
         q = i_a * dt if i_a >= 0.0 else c.eta_c * i_a * dt
@@ -628,7 +627,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             tr[t + 1, L.T_W_G] = st.w_g
             tr[t + 1, L.T_T_G] = st.t_g
             tr[t + 1, L.T_P_BATT] = p_batt
-            tr[t + 1, L.T_P_ENGINE_DYN] = p_dyn
+            tr[t + 1, L.T_P_ENGINE_START] = p_start
             tr[t + 1, L.T_T_INERTIA] = st.t_e - st.t_c
             tr[t + 1, L.T_FUEL] = fuel
             tr[t + 1, L.T_ENG_ON] = 1.0 if st.running else 0.0

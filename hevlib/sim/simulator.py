@@ -83,12 +83,18 @@ def simulate(vehicle: Vehicle, cycle: Cycle, *, record: bool = False, performanc
     return RunOutput(out, perf, vehicle.mass_kg, traces if record else None, veh.kernel.rows[:, R_SOC0].copy())
 
 
+def _ratio(num: np.ndarray, den: np.ndarray, default) -> np.ndarray:
+    """``num / den`` where ``den > 0``, else ``default`` (never a division by zero)."""
+    ok = den > 0
+    return np.where(ok, num / np.where(ok, den, 1.0), default)
+
+
 def battery_share(out: np.ndarray) -> np.ndarray:
     """Net chemical energy drawn from the battery as a share of the fuel energy (signed; +inf or -inf where the
     battery moved and no fuel was burnt, 0 where neither)."""
     e_fuel, e_batt = out[:, O_E_FUEL], out[:, O_E_BATT]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(e_fuel > 0, e_batt / np.where(e_fuel > 0, e_fuel, 1.0), np.sign(e_batt) * np.inf)
+    with np.errstate(invalid="ignore"):  # sign(0) * inf
+        return _ratio(e_batt, e_fuel, np.sign(e_batt) * np.inf)
 
 
 def charge_balance(
@@ -108,10 +114,10 @@ def charge_balance(
     resid = battery_share(out) if vehicle.kind != "conventional" else np.zeros(vehicle.n)
     todo = ~(np.abs(resid) <= tolerance)
     sim = vehicle.library.params.sim
-    while todo.any() and runs.max() < max_runs:
-        idx = np.flatnonzero(todo & (runs < max_runs))
-        if not len(idx):
+    for _ in range(max_runs - 1):
+        if not todo.any():
             break
+        idx = np.flatnonzero(todo)
         soc0[idx] = np.clip(out[idx, O_SOC_END], sim.soc_min + 1e-6, sim.soc_max - 1e-6)
         again = simulate(vehicle.take(idx).with_soc_init(soc0[idx]), cycle, performance=False)
         out[idx] = again.out
@@ -175,13 +181,8 @@ def responses(res: RunOutput, cycle: Cycle, library: KernelLibrary) -> pd.DataFr
     e_fuel, e_batt = o["e_fuel_j"].to_numpy(), o["e_batt_j"].to_numpy()
     # SOC correction (SAE J1711 spirit): net battery energy as the fuel the engine would have burnt
     # to put it back through the generator, at this run's own mean engine and generator efficiency.
-    eta_eng = np.where(
-        e_fuel > 0,
-        o["e_eng_shaft_j"].to_numpy() / np.where(e_fuel > 0, e_fuel, 1.0),
-        lib.engine_hybrid.max_efficiency(),
-    )
-    gen_in = o["e_gen_mech_in_j"].to_numpy()
-    eta_gen = np.where(gen_in > 0, o["e_gen_elec_out_j"].to_numpy() / np.where(gen_in > 0, gen_in, 1.0), 0.9)
+    eta_eng = _ratio(o["e_eng_shaft_j"].to_numpy(), e_fuel, lib.engine_hybrid.max_efficiency())
+    eta_gen = _ratio(o["e_gen_elec_out_j"].to_numpy(), o["e_gen_mech_in_j"].to_numpy(), 0.9)
     fuel_equiv_l = e_batt / (np.clip(eta_eng * eta_gen, 0.05, 1.0) * lhv) / rho_fuel
     acc_req = o["acc_req_sum_mps2"].to_numpy()
     in_energy = e_fuel + e_batt
@@ -202,9 +203,7 @@ def responses(res: RunOutput, cycle: Cycle, library: KernelLibrary) -> pd.DataFr
             "f_max": res.perf[:, 0],
             "fc_soc_corrected": 100.0 * (fuel_l + fuel_equiv_l) / dist_km,
             # no energy in (never started, never drew on the battery): no tractive energy out either
-            "eta_drivetrain": np.where(
-                in_energy > 0, o["e_traction_j"].to_numpy() / np.where(in_energy > 0, in_energy, 1.0), 0.0
-            ),
+            "eta_drivetrain": _ratio(o["e_traction_j"].to_numpy(), in_energy, 0.0),
             "t_0_100_s": res.perf[:, 1],
             "cycle_met": (
                 (o["max_speed_err_mps"].to_numpy() * 3.6 <= sim.cycle_met_tolerance_kmh)
@@ -219,9 +218,7 @@ def responses(res: RunOutput, cycle: Cycle, library: KernelLibrary) -> pd.DataFr
             "n_engine_starts": o["n_starts"].to_numpy(),
             "e_engine_start_j": o["e_engine_start_j"].to_numpy(),
             # fuel-weighted mean efficiency of the engine while fuelled (shaft work of fuelled steps / fuel energy)
-            "eta_engine_mean": np.where(
-                e_fuel > 0, o["e_shaft_fuelled_j"].to_numpy() / np.where(e_fuel > 0, e_fuel, 1.0), 0.0
-            ),
+            "eta_engine_mean": _ratio(o["e_shaft_fuelled_j"].to_numpy(), e_fuel, 0.0),
             # the candidate for the study's acceleration deviation whose scale matches its regression best
             # (benchmarks/accel_dev_review.py): mean |a_req - a_ach| over the cycle's steps / the cycle's peak a_req
             "accel_dev_mean_abs": 100.0

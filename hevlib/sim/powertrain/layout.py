@@ -211,7 +211,7 @@ BALANCE_SINKS = (
     T_HC_TP,
     T_CO_TP,
     T_NOX_TP,
-    T_P_ENGINE_DYN,
+    T_P_ENGINE_START,
     T_T_INERTIA,
 ) = range(35)
 N_T = 35
