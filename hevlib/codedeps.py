@@ -8,8 +8,8 @@ from ``stages/<command>.py``, adds each parent package's ``__init__``, and names
 when every module in it is reached. ``hev deps`` prints the lists, ``hev deps --write`` puts them into
 ``dvc.yaml``, ``hev deps --check`` (and the test suite) fails when a stage imports a module its deps omit.
 
-The stage's entry point (``stages/cli.py``) registers every command by importing the stage modules
-dynamically; that registration runs no stage's code, so it is not followed.
+The entry point (``stages/cli.py``) imports only the module of the command it runs (found by
+``stages.cli.command_index``, which reads the sources); that dynamic import is not followed.
 """
 
 from __future__ import annotations
@@ -100,16 +100,11 @@ _CODE_DEP = re.compile(r"^(\s*)- (hevlib|stages)(/\S*)?\s*(#.*)?$")
 
 
 def command_modules(root: Path) -> dict[str, str]:
-    """Each ``hev`` command with the ``stages`` module that registers it (``@app.command("name")``)."""
-    out: dict[str, str] = {}
-    for path in sorted((root / "stages").glob("*.py")):
-        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
-            if isinstance(node, ast.FunctionDef):
-                for deco in node.decorator_list:
-                    if isinstance(deco, ast.Call) and getattr(deco.func, "attr", None) == "command":
-                        name = deco.args[0].value if deco.args else node.name.replace("_", "-")
-                        out[name] = f"stages.{path.stem}"
-    return out
+    """Each ``hev`` command with the ``stages`` module that registers it (:func:`stages.cli.command_index`,
+    read from the sources)."""
+    from stages.cli import command_index
+
+    return {name: module for name, (module, _) in command_index(root).items()}
 
 
 def stage_commands(root: Path, dvc_yaml: str) -> dict[str, str]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -84,6 +85,7 @@ CHARGE_BALANCE_RESPONSES: tuple[str, ...] = (
     "charge_balance_runs",
     "charge_balance_residual",
     "charge_balanced",
+    "soc_init_charge_balanced",
 )
 BOOL_RESPONSES: tuple[str, ...] = ("cycle_met", "stalled", "charge_balanced")
 
@@ -108,13 +110,17 @@ class DesignSpace:
     def n(self) -> int:
         return len(DESIGN_VARS)
 
-    def check(self, x: np.ndarray, *, what: str = "design", integers: bool = True) -> np.ndarray:
+    def check(
+        self, x: np.ndarray, *, what: str = "design", integers: bool = True, first_line: int | None = None
+    ) -> np.ndarray:
         """Return ``x`` as a float (n, 7) array; raise ValueError naming the first offending variable.
 
         ``integers=False`` accepts the continuous relaxation of n_bat, n_r, n_s (surrogates, optimisers
-        before repair); the simulator always requires whole numbers.
+        before repair); the simulator always requires whole numbers. Positions are 1-based: the file's own
+        line where ``first_line`` (the line of the first design) is given, else the row.
         """
         x = np.asarray(x, dtype=float)
+        at = functools.partial(position, first_line=first_line)
         if x.ndim == 1:
             x = x[None, :]
         if x.ndim != 2 or x.shape[1] != len(DESIGN_VARS):
@@ -122,22 +128,22 @@ class DesignSpace:
         for j, name in enumerate(DESIGN_VARS):
             col = x[:, j]
             if not np.all(np.isfinite(col)):
-                raise ValueError(f"{what}: {name} is not finite (NaN or inf) in row {int(np.argmin(np.isfinite(col)))}")
+                raise ValueError(f"{what}: {name} is not finite (NaN or inf) in {at(int(np.argmin(np.isfinite(col))))}")
             tol = 1e-9 * max(1.0, abs(self.upper[j]))
             out = (col < self.lower[j] - tol) | (col > self.upper[j] + tol)
             if np.any(out):
                 i = int(np.argmax(out))
                 raise ValueError(
-                    f"{what}: {name}={col[i]:g} in row {i} is outside the design space "
+                    f"{what}: {name}={col[i]:g} in {at(i)} is outside the design space "
                     f"[{self.lower[j]:g}, {self.upper[j]:g}]"
                 )
             if integers and name in INTEGER_VARS and np.any(np.abs(col - np.round(col)) > 1e-9):
                 i = int(np.argmax(np.abs(col - np.round(col)) > 1e-9))
-                raise ValueError(f"{what}: {name}={col[i]:g} in row {i} must be an integer")
+                raise ValueError(f"{what}: {name}={col[i]:g} in {at(i)} must be an integer")
         n_r, n_s = x[:, DESIGN_VARS.index("n_r")], x[:, DESIGN_VARS.index("n_s")]
         if np.any(n_s >= n_r):
             i = int(np.argmax(n_s >= n_r))
-            raise ValueError(f"{what}: impossible gear set in row {i}: n_s={n_s[i]:g} must be below n_r={n_r[i]:g}")
+            raise ValueError(f"{what}: impossible gear set in {at(i)}: n_s={n_s[i]:g} must be below n_r={n_r[i]:g}")
         return x
 
 
@@ -146,7 +152,20 @@ def design_vector(source) -> np.ndarray:
     return np.array([float(getattr(source, v)) for v in DESIGN_VARS])
 
 
-def design_matrix(table: pd.DataFrame, *, what: str = "designs") -> np.ndarray:
+def position(i: int, *, first_line: int | None = None) -> str:
+    """Where row ``i`` (0-based) of a table stands, 1-based: ``line <n>`` of its file when ``first_line`` (the
+    line of row 0) is known, else ``row <i + 1>``."""
+    return f"line {i + first_line}" if first_line is not None else f"row {i + 1}"
+
+
+def _shown(value) -> str:
+    """A cell as the user wrote it (no Python repr): empty cells as ``empty``."""
+    if value is None or (isinstance(value, float) and np.isnan(value)):
+        return "empty"
+    return str(value.item() if isinstance(value, np.generic) else value)
+
+
+def design_matrix(table: pd.DataFrame, *, what: str = "designs", first_line: int | None = None) -> np.ndarray:
     """The (n, 7) design matrix from a table with the seven design-variable columns."""
     missing = [v for v in DESIGN_VARS if v not in table.columns]
     if missing:
@@ -158,20 +177,24 @@ def design_matrix(table: pd.DataFrame, *, what: str = "designs") -> np.ndarray:
         bad = num.isna().to_numpy() | (raw.dtype.kind == "b")  # text, empty cells, or a flag where a number belongs
         if bad.any():
             i = int(np.argmax(bad))
-            raise ValueError(f"{what}: {v} is not a number in row {i + 1} ({raw.iloc[i]!r})")
+            raise ValueError(
+                f"{what}: {v} is not a number in {position(i, first_line=first_line)} ({_shown(raw.iloc[i])})"
+            )
         cols.append(num.to_numpy(dtype=float))
     return np.column_stack(cols)
 
 
-def read_designs(path) -> np.ndarray:
-    """A user's designs file (CSV or Parquet) as an (n >= 1, 7) matrix; one-line errors name the file and
-    the column and row (empty file, header only, a missing column, text or a flag where a number belongs)."""
+def read_designs(path, space: DesignSpace | None = None, *, integers: bool = True) -> np.ndarray:
+    """A user's designs file (CSV or Parquet) as an (n >= 1, 7) matrix, checked against ``space`` when given;
+    one-line errors name the file, the column and the CSV's own line (1-based; a Parquet file's row): empty
+    file, header only, a missing column, text or a flag where a number belongs, a value outside the space."""
     from hevlib.io import read_table
 
-    X = design_matrix(read_table(path), what=str(path))
+    first_line = 2 if str(path).lower().endswith(".csv") else None  # line 1 is the header
+    X = design_matrix(read_table(path), what=str(path), first_line=first_line)
     if len(X) == 0:
         raise ValueError(f"{path}: no designs (a header but no rows)")
-    return X
+    return X if space is None else space.check(X, what=str(path), integers=integers, first_line=first_line)
 
 
 def gear_set_buildable(n_r: np.ndarray, n_s: np.ndarray, n_planets: int = 4, min_planet_teeth: int = 9) -> np.ndarray:

@@ -43,7 +43,7 @@ from hevlib.design import (
     RESPONSES,
     DesignSpace,
 )
-from hevlib.params import EXECUTION_KEYS
+from hevlib.params import sizing_simulation_keys
 from hevlib.tables import write_parquet_batches
 
 L27_FILE = "data/raw/paper/l27_assignment.csv"
@@ -239,16 +239,14 @@ def heldout_record(space: DesignSpace, p) -> dict:
 
 
 def simulation_fingerprint(params) -> str:
-    """Short hash of everything that changes a simulated response: the model version, the simulator's
-    source code and the params groups ``cycles``, ``baseline``, ``sim``, ``pms`` (a cached simulated set
-    is reused only if equal), less where the batches run (``EXECUTION_KEYS``)."""
+    """Short hash of everything that changes a simulated response on the sizing cycle: the model version, the
+    simulator's source code and :func:`hevlib.params.sizing_simulation_keys` (a cached simulated set is reused
+    only if equal)."""
     blob = json.dumps(
         {
             "model_version": MODEL_VERSION,
             "simulator_source": source_hash(SIMULATOR_SOURCES),
-            **params.model_dump(
-                mode="json", include={"cycles", "baseline", "sim", "pms"}, exclude={"sim": set(EXECUTION_KEYS)}
-            ),
+            **sizing_simulation_keys(params),
         },
         sort_keys=True,
     )

@@ -110,6 +110,32 @@ class BaselineParams(_Strict):
 # --------------------------------------------------------------------------------------- simulation
 #: ``sim`` keys that choose where batches run, never what they compute (left out of the simulation fingerprint)
 EXECUTION_KEYS = ("executor", "scheduler", "workers")
+#: ``sim`` keys only the charge-balanced runs read (validation, baselines), never a sizing-cycle simulation
+CHARGE_BALANCE_KEYS = ("charge_balance_tolerance", "charge_balance_max_runs")
+#: ``baseline`` keys a hybrid design's simulation reads from params (the rest reach it through data/components,
+#: or describe the baselines only): the conventional car it converts (engine rated power, test mass).
+CONVERSION_KEYS = ("baseline.conventional.p_eng_kw", "baseline.conventional.test_mass_kg")
+
+
+def sizing_simulation_keys(params) -> dict[str, object]:
+    """Every params key (dotted, DVC's spelling) a hybrid design's simulated responses on the sizing cycle
+    depend on, with its value: the ``sim`` keys less where batches run, the charge-balance loop and the start
+    state of other cycles; ``sim.start.<sizing>``; ``pms``; :data:`CONVERSION_KEYS`; ``cycles.sizing`` and
+    ``cycles.cycles.<sizing>`` (its file and grade). The
+    simulating stages of ``dvc.yaml`` list exactly these (a test holds them to it) and
+    :func:`hevlib.doe.simulation_fingerprint` hashes them, so a key that changes neither never reruns them."""
+    sizing = params.cycles.sizing
+    sim = params.sim.model_dump(mode="json")
+    out: dict[str, object] = {
+        f"sim.{k}": v for k, v in sim.items() if k not in (*EXECUTION_KEYS, *CHARGE_BALANCE_KEYS, "start")
+    }
+    out[f"sim.start.{sizing}"] = params.sim.start.get(sizing, "cold")
+    out["pms"] = params.pms.model_dump(mode="json")
+    conv = params.baseline.conventional
+    out.update({CONVERSION_KEYS[0]: conv.p_eng_kw, CONVERSION_KEYS[1]: conv.test_mass_kg})
+    out["cycles.sizing"] = sizing
+    out[f"cycles.cycles.{sizing}"] = params.cycles.cycles[sizing].model_dump(mode="json")
+    return out
 
 
 class SimParams(_Strict):
@@ -389,7 +415,8 @@ class ScreenParams(_Strict):
     buildable_gear_set: bool = True  # rule hevlib.design.gear_set_buildable (reported even when off)
     n_keep: Annotated[int, Field(ge=1, le=1_000_000)] = 78
     n_pick: Annotated[int, Field(ge=1, le=1_000_000)] = 15
-    pick: Literal["random", "diverse"] = "random"
+    min_v_max_kmh: Annotated[float, Field(gt=0, le=400)] | None = None  # rule sim_v_max >= this; null: off
+    pick: Literal["recommend", "random", "diverse"] = "recommend"
     seed: Seed = 2024
 
     @model_validator(mode="after")
@@ -403,7 +430,7 @@ class ScreenParams(_Strict):
 class ValidateParams(_Strict):
     """Cycles the picked designs and both baselines are simulated on; the first is the headline cycle."""
 
-    cycles: list[Annotated[str, Field(pattern=r"^[A-Za-z0-9_]+$")]] = ["ftp", "hwfet"]
+    cycles: list[Annotated[str, Field(pattern=r"^[A-Za-z0-9_]+$")]] = ["ftp", "hwfet", "us06"]
 
     @model_validator(mode="after")
     def _cycles(self):

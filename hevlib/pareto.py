@@ -18,9 +18,11 @@ The steps of SPEC section 9, each a pure function over tables or arrays:
    feasible set (a constant objective contributes 0) and each design is ranked by its Euclidean
    distance to the ideal point (the origin of the normalised space); ties keep merge order. The best
    ``n_keep`` are kept -- all of them when fewer are feasible.
-5. Picking ``n_pick`` of the kept designs: :func:`pick_random` (``np.random.default_rng(seed)``
-   choice without replacement, as the study did) or :func:`pick_diverse` (farthest-point sampling on
-   objectives normalised over the kept set, starting from the best-ranked design; deterministic).
+5. Picking ``n_pick`` of the kept designs: ``recommend`` (the default: a shortlist for the validate stage's
+   recommendation, :func:`hevlib.recommend.shortlist`; each seed's role in ``pick_role``),
+   :func:`pick_random` (``np.random.default_rng(seed)`` choice without replacement, as the study did) or
+   :func:`pick_diverse` (farthest-point sampling on objectives normalised over the kept set, starting from
+   the best-ranked design; deterministic).
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ import pyarrow as pa
 from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, SENSE
 from hevlib.indicators import Hypervolume, Normalisation, hypervolume
 from hevlib.params import OptimiseParams
+from hevlib.recommend import shortlist
 from hevlib.screen import SIM, ScreenRule, passing, screening_rules
 from hevlib.tables import Table, columns, lazy, matrix, n_rows
 
@@ -163,12 +166,30 @@ def apply_screening(
     how many each rule fails on its own (``fails_alone``) and how many it removed when the enabled
     rules are applied in order (``removed_in_sequence``; 0 for a rule that is switched off).
     """
-    if rules:
-        ok_all = lazy(table).select([r.expr().fill_null(False).alias(r.name) for r in rules]).collect()
-    n = len(ok_all) if rules else n_rows(table)
+    present = set(columns(table))
+    absent = {r.name for r in rules if not set(r.expr_columns()) <= present}
+    for r in rules:
+        if r.name in absent and r.enabled:
+            missing = sorted(set(r.expr_columns()) - present)
+            raise ValueError(f"screen rule {r.name}: the table has no column {', '.join(missing)}")
+    evaluated = [r for r in rules if r.name not in absent]  # a rule that is off and cannot be evaluated: skipped
+    if evaluated:
+        ok_all = lazy(table).select([r.expr().fill_null(False).alias(r.name) for r in evaluated]).collect()
+    n = len(ok_all) if evaluated else n_rows(table)
     cand = np.ones(n, dtype=bool) if candidates is None else np.asarray(candidates, dtype=bool)
     masks, report, alive = {}, {}, cand.copy()
     for rule in rules:
+        if rule.name in absent:
+            report[rule.name] = {
+                "enabled": False,
+                "rule": rule.description,
+                "limit": rule.limit,
+                "fails_alone": None,
+                "removed_in_sequence": 0,
+                "remaining_after": int(alive.sum()),
+                "note": "not evaluated: the table has none of its columns",
+            }
+            continue
         ok = ok_all[rule.name].to_numpy().astype(bool)
         masks[rule.name] = ok
         removed = int(np.sum(alive & ~ok)) if rule.enabled else 0
@@ -429,6 +450,16 @@ def pick_diverse(F_norm: np.ndarray, k: int, start: int = 0) -> np.ndarray:
     return np.array(picked, dtype=np.int64)
 
 
+#: How each ``screen.pick`` chooses the designs to validate (reported in ``reports/pareto.json``).
+PICK_RULES = {
+    "recommend": "shortlist for a recommendation (hevlib/recommend.py): the knee of sizing-cycle fc against "
+    "m_veh and t_0_100_s, the best design of each objective group (fuel; emissions; performance), then "
+    "farthest-point sampling over the normalised objectives; the validate stage recommends one of them",
+    "random": "seeded random choice without replacement, as the study did",
+    "diverse": "farthest-point sampling over the normalised objectives from the best-ranked design",
+}
+
+
 # -------------------------------------------------------------------------------- the stage
 class _Clock:
     """Wall seconds since the previous call, stored under each step's name (nothing when ``into`` is None)."""
@@ -494,12 +525,20 @@ def select_designs(
 
     idx_kept = np.flatnonzero(kept)
     idx_kept = idx_kept[np.argsort(rank[idx_kept], kind="stable")]  # best first
-    if screen.pick == "random":
+    roles: dict[str, int] = {}
+    if screen.pick == "recommend":
+        kept_rows = merged[idx_kept].select([f"{SIM}{k}" for k in RESPONSES if f"{SIM}{k}" in merged.columns])
+        local, roles = shortlist(kept_rows.to_pandas(), screen.n_pick)
+    elif screen.pick == "random":
         local = pick_random(len(idx_kept), screen.n_pick, screen.seed)
     else:
         local = pick_diverse(normalise(F[idx_kept]), screen.n_pick, start=0)
     picked = np.zeros(len(merged), dtype=bool)
     picked[idx_kept[local]] = True
+    role = np.full(len(merged), "", dtype=object)
+    for name, i in roles.items():
+        j = idx_kept[i]
+        role[j] = f"{role[j]}+{name}" if role[j] else name
 
     merged = merged.with_columns(
         pl.Series("finite", finite),
@@ -510,6 +549,7 @@ def select_designs(
         pl.Series("rank", rank),
         pl.Series("kept", kept),
         pl.Series("picked", picked),
+        pl.Series("pick_role", role.tolist(), dtype=pl.String),
     )
 
     sel_cols = [
@@ -518,6 +558,7 @@ def select_designs(
         "sources",
         "rank",
         "ideal_distance",
+        "pick_role",
         *DESIGN_VARS,
         *[f"{SIM}{k}" for k in objectives],
         *[c for c in merged.columns if c.startswith(PRED)],
@@ -561,6 +602,8 @@ def select_designs(
             "n_pick": int(screen.n_pick),
             "pick": screen.pick,
             "seed": int(screen.seed) if screen.pick == "random" else None,
+            "pick_rule": PICK_RULES[screen.pick],
+            "roles": {name: str(merged["design_id"][int(idx_kept[i])]) for name, i in roles.items()},
         },
         "notes": notes,
     }
@@ -574,7 +617,7 @@ def table_schema(table: Table) -> pa.Schema:
     rank, integer design variables as the fronts store them), bool masks, float64 for the rest."""
     fields = []
     for col, dtype in lazy(table).collect_schema().items():
-        if col in ("design_id", "algo", "sources"):
+        if col in ("design_id", "algo", "sources", "pick_role"):
             fields.append(pa.field(col, pa.string(), nullable=False))
         elif dtype == pl.Boolean:
             fields.append(pa.field(col, pa.bool_(), nullable=False))

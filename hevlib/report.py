@@ -182,8 +182,13 @@ def _pareto_section(pareto: Mapping) -> list[str]:
     return out
 
 
-def _designs_table(table: pd.DataFrame, selected: pd.DataFrame, cycle: str) -> str:
+def _designs_table(table: pd.DataFrame, selected: pd.DataFrame, cycle: str, fails: Mapping) -> str:
     rows = table[table["cycle"] == cycle]
+    role = (
+        dict(zip(selected["design_id"].astype(str), selected["pick_role"], strict=True))
+        if "pick_role" in selected
+        else {}
+    )
     rank = dict(zip(selected["design_id"].astype(str), selected["rank"], strict=True)) if "rank" in selected else {}
     order = list(rows[rows["algo"] != BASELINE_ALGO]["vehicle"]) + ["prius", "conventional"]
     rows = rows.set_index("vehicle").loc[[v for v in order if v in set(rows["vehicle"])]]
@@ -206,13 +211,175 @@ def _designs_table(table: pd.DataFrame, selected: pd.DataFrame, cycle: str) -> s
         "vehicle",
         "algo",
         "rank",
+        "role",
         *DESIGN_VARS,
         *[f"{c} [{_UNITS[c]}]" if _UNITS.get(c, "-") != "-" else c for c in cols],
+        "fails",
     ]
     body = [
-        [v, r["algo"], rank.get(v), *[r[x] for x in DESIGN_VARS], *[r[c] for c in cols]] for v, r in rows.iterrows()
+        [
+            v,
+            r["algo"],
+            rank.get(v),
+            role.get(v) or "",
+            *[r[x] for x in DESIGN_VARS],
+            *[r[c] for c in cols],
+            ", ".join(f"**{c}**" for c in fails.get(v, [])) or "none",
+        ]
+        for v, r in rows.iterrows()
     ]
     return markdown_table(header, body)
+
+
+def _rec_units(r: str) -> str:
+    unit = _UNITS.get(r, {"n_engine_starts": "-", "t_cat_light_off_s": "s", "cycle_met": "-"}.get(r, "-"))
+    return f"{r} [{unit}]" if unit != "-" else r
+
+
+def _design_line(d: Mapping) -> str:
+    x = d["design"]
+    return ", ".join(f"{v} = {_fmt(x[v])}" for v in DESIGN_VARS)
+
+
+def _reasons_lines(d: Mapping) -> list[str]:
+    out = []
+    touched = d.get("bounds_touched", [])
+    out.append(
+        "- Bounds of the design box it touches: "
+        + (
+            ", ".join(f"`{b['variable']}` at its {b['side']} bound {b['bound']:g}" for b in touched)
+            + " -- the optimum may lie beyond: consider widening them"
+            if touched
+            else "none"
+        )
+        + "."
+    )
+    margins = d.get("screen_margins", {})
+    if margins:
+        out.append(
+            "- Margin to the screen (value against limit; a rule within 5 % of its limit is active): "
+            + "; ".join(
+                f"`{name}` {_fmt(m['value'])} vs {_fmt(m['limit'])} ({'on' if m['enabled'] else 'off'}"
+                + (", **active**" if m["active"] else f", {100 * -m['margin']:.1f} % to spare")
+                + ")"
+                for name, m in margins.items()
+            )
+            + "."
+        )
+    fails = d.get("fails", [])
+    out.append("- Validation cycles it fails: " + (", ".join(f"**{c}**" for c in fails) if fails else "none") + ".")
+    return out
+
+
+def _build_this(validation: Mapping, pareto: Mapping) -> list[str]:
+    rec = validation.get("recommendation")
+    if not rec:
+        return []
+    d = rec["design"]
+    out = ["## Build this", ""]
+    if d is None:
+        return out + ["> No design could be recommended: no pick has finite validation figures.", ""]
+    out += [
+        f"**{d['design_id']}** (found by {d['algo']}, rank {d['rank']} of the kept designs): {_design_line(d)}.",
+        "",
+        f"Why this one: the {rec['preference']} ({rec['eligible']} of the {validation['counts']['picked']} picks"
+        + (")." if rec["pool_rule"] == "eligible" else f"; {rec['pool_rule']})."),
+        "",
+        *_reasons_lines(d),
+        "",
+    ]
+    cycles = list(d["by_cycle"])
+    for cycle in cycles:
+        fig = d["by_cycle"][cycle]
+        rows = []
+        for r in (x for x in fig["design"] if x != "cycle_met"):
+            rows.append(
+                [
+                    _rec_units(r),
+                    fig["design"][r],
+                    fig["prius"][r],
+                    fig["conventional"][r],
+                    _round(fig["vs_prius"].get(r)),
+                    _round(fig["vs_conventional"].get(r)),
+                ]
+            )
+        rows.append(["cycle met", *[fig[k]["cycle_met"] for k in ("design", "prius", "conventional")], None, None])
+        out += [
+            f"### {cycle}" + (" (headline cycle)" if cycle == rec["cycle"] else ""),
+            "",
+            markdown_table(
+                ["figure", d["design_id"], "stock Prius", "conventional", "% better than Prius", "% better than conv."],
+                rows,
+            ),
+            "",
+        ]
+    bags = d.get("ftp_bags")
+    if bags:
+        out += [
+            "### FTP bag by bag (each hybrid from the SOC its charge-balanced run started at)",
+            "",
+            markdown_table(
+                ["vehicle", "bag", "seconds", "km", "fc [L/100 km]", "hc [g/km]", "co [g/km]", "nox [g/km]", "ΔSOC"],
+                [
+                    [
+                        v,
+                        b["bag"],
+                        f"{b['start_s']:g}-{b['end_s']:g}",
+                        b["distance_km"],
+                        b["fc"],
+                        b["hc"],
+                        b["co"],
+                        b["nox"],
+                        b["delta_soc"],
+                    ]
+                    for v, rows in bags.items()
+                    for b in rows
+                ],
+            ),
+            "",
+        ]
+    best = rec.get("best", {})
+    if best:
+        out += [
+            "### The best pick of each objective group (same cycle, same eligibility)",
+            "",
+            markdown_table(
+                [
+                    "group",
+                    "criterion",
+                    "design",
+                    "fc_charge_balanced [L/100 km]",
+                    "m_veh [kg]",
+                    "t_0_100_s [s]",
+                    "bounds touched",
+                    "fails",
+                ],
+                [
+                    [
+                        g,
+                        " + ".join(rec["groups"][g]),
+                        b["design_id"],
+                        b["by_cycle"][rec["cycle"]]["design"]["fc_charge_balanced"],
+                        b["by_cycle"][rec["cycle"]]["design"]["m_veh"],
+                        b["by_cycle"][rec["cycle"]]["design"]["t_0_100_s"],
+                        ", ".join(f"{t['variable']} {t['side']}" for t in b["bounds_touched"]) or "none",
+                        ", ".join(b["fails"]) or "none",
+                    ]
+                    for g, b in best.items()
+                    if b is not None
+                ],
+            ),
+            "",
+        ]
+    hw = rec["highway_rule"]
+    out.append(
+        f"Highway rule (`screen.min_v_max_kmh`): {'on' if hw['enabled'] else 'off'} at {hw['min_v_max_kmh']:g} km/h; "
+        f"{len(hw['picks_below'])} of the picks fall short of it on the sizing cycle's top-speed test."
+    )
+    ab = pareto.get("active_bounds")
+    if ab:
+        out += ["", f"Active bounds of the design box (kept designs): {ab['advice']}."]
+    return out + [""]
 
 
 def _headline(validation: Mapping) -> list[str]:
@@ -273,8 +440,12 @@ def build_summary(
     """The whole ``summary.md`` text. ``plots`` maps a caption to a path relative to the summary."""
     cycle = validation["cycle"]
     imp = validation["improvement"]
+    fails = validation["counts"].get("failed_cycles", {})
     out = [
         "# hev-sizing: selection and validation summary",
+        "",
+        *_build_this(validation, pareto),
+        "## How to read the rest",
         "",
         "Generated by `hev validate` (do not edit): improvements are means over the picked designs, "
         "'+' = better. Minimised responses: 100 (base - design) / |base|; maximised (v_max, f_max, "
@@ -334,8 +505,13 @@ def build_summary(
         "",
     ]
     for other, sec in validation.get("by_cycle", {}).items():
+        failing = sorted(v for v, cs in fails.items() if other in cs and v not in ("prius", "conventional"))
         out += [
             f"## Robustness check: {other}",
+            "",
+            f"Picks that fail {other}: "
+            + (", ".join(f"**{v}**" for v in failing) if failing else "none")
+            + " (their figures are in the means below).",
             "",
             "### Against the conventional car",
             "",
@@ -346,7 +522,16 @@ def build_summary(
             improvement_markdown(sec["improvement"], "vs_prius"),
             "",
         ]
-    out += [f"## Selected designs ({cycle} results)", "", _designs_table(table, selected, cycle), ""]
+    out += [
+        f"## Selected designs ({cycle} results)",
+        "",
+        "`role`: why the shortlist holds a design (knee, best of a group; blank: farthest-point fill); `fails`: "
+        "the validation cycles a vehicle did not follow (more than "
+        "`sim.cycle_met_tolerance_kmh` off the trace, or stalled) -- marked wherever the design appears.",
+        "",
+        _designs_table(table, selected, cycle, fails),
+        "",
+    ]
     out += _pareto_section(pareto) + [""]
     if plots:
         out += ["## Plots", ""]

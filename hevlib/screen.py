@@ -53,9 +53,13 @@ class ScreenRule:
             raise ValueError(f"screen rule {self.name}: not a constraint (it is kept by repair)")
         return np.asarray(self.margin({k: np.asarray(cols[k], dtype=float) for k in self.reads}), dtype=float)
 
+    def expr_columns(self) -> list[str]:
+        """The table columns :meth:`expr` reads (design variables plain, responses ``sim_``-prefixed)."""
+        return [k if k in DESIGN_VARS else f"{SIM}{k}" for k in self.reads]
+
     def expr(self) -> pl.Expr:
         """Polars expression (bool) over a table whose responses carry the ``sim_`` prefix."""
-        names = [k if k in DESIGN_VARS else f"{SIM}{k}" for k in self.reads]
+        names = self.expr_columns()
         fields = [pl.col(n).cast(pl.Float64).alias(k) for n, k in zip(names, self.reads, strict=True)]
         return pl.struct(fields).map_batches(
             lambda s: pl.Series(self.mask({k: s.struct.field(k).to_numpy() for k in self.reads})),
@@ -107,6 +111,32 @@ def _at_most(name: str, response: str, limit: float, description: str) -> Screen
     )
 
 
+def _at_least(name: str, response: str, limit: float, description: str, enabled: bool = True) -> ScreenRule:
+    """A simulated response at least ``limit`` (NaN fails); as a constraint ``1 - value / limit``."""
+    return ScreenRule(
+        name,
+        enabled,
+        description,
+        (response,),
+        lambda c: c[response] >= limit,
+        lambda c: 1.0 - c[response] / limit,
+        float(limit),
+    )
+
+
+#: The top speed the highway rule asks for when ``screen.min_v_max_kmh`` is unset (the rule is then
+#: evaluated and reported, not applied): US06's peak, 129.2 km/h, rounded up.
+HIGHWAY_V_MAX_KMH = 130.0
+
+
+def min_v_max(limit_kmh: float | None) -> ScreenRule:
+    """Highway capability: ``sim_v_max`` at least ``limit_kmh``; off (reported at
+    :data:`HIGHWAY_V_MAX_KMH`) when ``limit_kmh`` is None."""
+    limit = HIGHWAY_V_MAX_KMH if limit_kmh is None else float(limit_kmh)
+    description = f"sim_v_max >= {limit:g} km/h (highway capability)"
+    return _at_least("min_v_max", "v_max", limit, description, enabled=limit_kmh is not None)
+
+
 def speed_dev_max(limit: float) -> ScreenRule:
     description = f"sim_speed_dev <= {limit:g} (share of the cycle off the trace)"
     return _at_most("speed_dev_max", "speed_dev", limit, description)
@@ -141,6 +171,7 @@ def screening_rules(screen) -> list[ScreenRule]:
         speed_dev_max(screen.speed_dev_max),
         mass_max(screen.mass_max_kg),
         buildable_gear_set(bool(screen.buildable_gear_set)),
+        min_v_max(screen.min_v_max_kmh),
     ]
 
 
@@ -159,7 +190,9 @@ __all__ = [
     "ScreenRule",
     "buildable_gear_set",
     "gen_below_motor",
+    "HIGHWAY_V_MAX_KMH",
     "mass_max",
+    "min_v_max",
     "not_stalled",
     "passes",
     "passing",

@@ -326,6 +326,157 @@ def summarise(table: pd.DataFrame, algos: Sequence[str], cycles: Sequence[str], 
     }
 
 
+# ------------------------------------------------------------------------------------- recommendation
+#: Responses of the "Build this" tables, in their row order (units in hevlib.doe.UNITS).
+RECOMMENDED_RESPONSES: tuple[str, ...] = (
+    "fc_charge_balanced",
+    "fc",
+    "hc",
+    "co",
+    "nox",
+    "m_veh",
+    "t_0_100_s",
+    "v_max",
+    "f_max",
+    "n_engine_starts",
+    "t_cat_light_off_s",
+    "cycle_met",
+)
+
+
+def failed_cycles(table: pd.DataFrame, cycles: Sequence[str]) -> dict[str, list[str]]:
+    """Per picked design (and baseline), the validation cycles it did not meet (off the trace or stalled);
+    vehicles that met every cycle are left out."""
+    out: dict[str, list[str]] = {}
+    for cycle in cycles:
+        rows = table[(table["cycle"] == cycle) & ~table["cycle_met"].astype(bool)]
+        for v in rows["vehicle"].astype(str):
+            out.setdefault(v, []).append(cycle)
+    return out
+
+
+def _plain(selected_row: pd.Series) -> dict[str, float]:
+    """A selected design's variables and sizing-cycle objectives under their plain names."""
+    out = {v: float(selected_row[v]) for v in DESIGN_VARS}
+    out.update({k[len("sim_") :]: float(selected_row[k]) for k in selected_row.index if k.startswith("sim_")})
+    return out
+
+
+def _figures(row: pd.Series) -> dict:
+    return {r: (bool(row[r]) if r in BOOL_RESPONSES else _finite(row[r])) for r in RECOMMENDED_RESPONSES}
+
+
+def _finite(v) -> float | None:
+    v = float(v)
+    return v if np.isfinite(v) else None
+
+
+def recommendation(table: pd.DataFrame, selected: pd.DataFrame, cycles: Sequence[str], screen, space) -> dict:
+    """``reports/validation.json``'s ``recommendation``: the design to build (the knee of the charge-balanced
+    fuel on the first cycle against test mass and 0-100 km/h time, among the picks that meet every
+    validation cycle and the highway rule when it is on; :func:`hevlib.recommend.recommend`), the best pick
+    of each objective group, each with its reasons (bounds touched, screen margins) and its figures against
+    both baselines on every validation cycle."""
+    from hevlib.recommend import KNEE_CRITERIA, VALIDATED_GROUPS, reasons, recommend
+    from hevlib.screen import min_v_max, screening_rules
+
+    head = cycles[0]
+    designs, _ = split_cycle(table, head)
+    fails = failed_cycles(table, cycles)
+    ids = designs["vehicle"].astype(str)
+    highway = min_v_max(screen.min_v_max_kmh)
+    meets_all = ~ids.isin(list(fails)).to_numpy()
+    fast_enough = highway.mask({"v_max": designs["v_max"].to_numpy(dtype=float)})
+    eligible = meets_all & (fast_enough if highway.enabled else True)
+    choice = recommend(designs, eligible)
+    rules = screening_rules(screen)
+    by_id = {str(r["design_id"]): r for _, r in selected.iterrows()}
+
+    def explain(design_id: str | None) -> dict | None:
+        if design_id is None:
+            return None
+        x = by_id[design_id]
+        out = {
+            "design_id": design_id,
+            "algo": str(x["algo"]),
+            "rank": int(x["rank"]) if "rank" in x else None,
+            "design": {v: float(x[v]) for v in DESIGN_VARS},
+            **reasons(_plain(x), space, rules),
+            "fails": fails.get(design_id, []),
+            "by_cycle": {},
+        }
+        for cycle in cycles:
+            d, b = split_cycle(table, cycle)
+            row = d[d["vehicle"].astype(str) == design_id].iloc[0]
+            out["by_cycle"][cycle] = {
+                "design": _figures(row),
+                **{name: _figures(base) for name, base in b.items()},
+                **{
+                    f"vs_{name}": {
+                        r: _finite(
+                            improvement(r, np.array([row[r]]), base[r], base_has_battery=name not in NO_BATTERY)[0]
+                        )
+                        for r in RECOMMENDED_RESPONSES
+                        if r not in BOOL_RESPONSES
+                    }
+                    for name, base in b.items()
+                },
+            }
+        return out
+
+    return {
+        "cycle": head,
+        "preference": (
+            f"knee of {', '.join(KNEE_CRITERIA)} on {head} (all minimised; hevlib/recommend.py), among the picks that "
+            "meet every validation cycle" + (f" and reach {highway.limit:g} km/h" if highway.enabled else "")
+        ),
+        "criteria": list(KNEE_CRITERIA),
+        "groups": {g: list(n) for g, n in VALIDATED_GROUPS.items()},
+        "eligible": choice["pool"],
+        "pool_rule": choice["pool_rule"],
+        "highway_rule": {
+            "enabled": highway.enabled,
+            "min_v_max_kmh": highway.limit,
+            "picks_below": [str(i) for i, ok in zip(ids, fast_enough, strict=True) if not ok],
+        },
+        "design": explain(choice["design"]),
+        "best": {g: explain(i) for g, i in choice["best"].items()},
+    }
+
+
+def bag_figures(trace: pd.DataFrame, cycle: Cycle, density_g_per_l: float, bags: Sequence[tuple[float, float]]) -> list:
+    """Fuel (L/100 km), tailpipe HC/CO/NOx (g/km) and SOC change of one vehicle's trace over each bag
+    ``(start_s, end_s)`` of ``cycle`` (time since the cycle's start)."""
+    t = trace["time_s"].to_numpy(dtype=float)
+    dt = np.diff(t, prepend=t[0])
+    out = []
+    for k, (a, b) in enumerate(bags, start=1):
+        m = (t > a) & (t <= b)
+        km = float(np.sum(trace["v_mps"].to_numpy(dtype=float)[m] * dt[m])) / 1000.0
+        fuel_l = float(np.sum(trace["fuel_g_s"].to_numpy(dtype=float)[m] * dt[m])) / density_g_per_l
+        soc = trace["soc"].to_numpy(dtype=float)
+        i0 = max(int(np.flatnonzero(m)[0]) - 1, 0) if m.any() else 0
+        i1 = int(np.flatnonzero(m)[-1]) if m.any() else 0
+        row = {
+            "bag": k,
+            "start_s": a,
+            "end_s": b,
+            "distance_km": km,
+            "fc": 100.0 * fuel_l / km if km > 0 else None,
+            "delta_soc": float(soc[i1] - soc[i0]),
+        }
+        for gas in ("hc", "co", "nox"):
+            grams = float(np.sum(trace[f"{gas}_tailpipe_g_s"].to_numpy(dtype=float)[m] * dt[m]))
+            row[gas] = grams / km if km > 0 else None
+        out.append(row)
+    return out
+
+
+#: FTP's three bags in seconds of our FTP file: bag 1 (cold transient, 0-505 s), bag 2 (stabilised,
+#: 505-1372 s), then the 10-minute key-off soak and bag 3 (hot transient, the first 505 s again).
+FTP_BAGS_S: tuple[tuple[float, float], ...] = ((0.0, 505.0), (505.0, 1372.0), (1972.0, 2477.0))
+
+
 def headline(summary: dict) -> dict:
     """``reports/headline.json``: the answer in six figures (its keys are a contract; ``reports/answer.json``,
     :func:`answer`, holds the same figures under short keys as the declared DVC metric).
@@ -334,7 +485,8 @@ def headline(summary: dict) -> dict:
     car and against the stock Prius (the study's protocol, from SOC 0.7: ``fc``), mass saved against the
     conventional car (percent, positive = better), mean engine power, number of picks; and the fuel saved
     against the conventional car on charge-balanced runs (``fc_charge_balanced``, SAE J1711: the battery's net
-    energy within 1 % of the fuel's), the figure to quote. The full tables stay in ``reports/validation.json``.
+    energy within 1 % of the fuel's), the figure to quote; and the recommended design (``screen.pick:
+    recommend``) with its own charge-balanced saving. The full tables stay in ``reports/validation.json``.
     """
     imp = summary["improvement"][ALL]
     return {
@@ -344,6 +496,20 @@ def headline(summary: dict) -> dict:
         "mass_saving_pct": imp["vs_conventional"]["m_veh"],
         "p_eng_kw": summary["mean_p_eng_kw"][ALL],
         "n_picks": summary["counts"]["picked"],
+        **_recommended_headline(summary),
+    }
+
+
+def _recommended_headline(summary: dict) -> dict:
+    """The recommended design's id and its charge-balanced fuel saving against the conventional car on the
+    headline cycle (null without a recommendation)."""
+    rec = (summary.get("recommendation") or {}).get("design")
+    if rec is None:
+        return {"recommended_design": None, "recommended_fc_saving_charge_balanced_pct": None}
+    vs = rec["by_cycle"][summary["cycle"]]["vs_conventional"]
+    return {
+        "recommended_design": rec["design_id"],
+        "recommended_fc_saving_charge_balanced_pct": vs["fc_charge_balanced"],
     }
 
 
@@ -355,17 +521,23 @@ ANSWER_KEYS: dict[str, str] = {
     "mass_saving_pct": "mass_pct",
     "p_eng_kw": "p_eng_kw",
     "n_picks": "n_picks",
+    "recommended_fc_saving_charge_balanced_pct": "rec_fc_cb_pct",
 }
 
 
 def answer(head: dict) -> dict:
     """``reports/answer.json``, the pipeline's declared DVC metric: :func:`headline`'s figures under the short
     keys of :data:`ANSWER_KEYS`, so that ``dvc metrics show`` and ``dvc exp show`` fit one 120-column line
-    (the six long names of ``headline.json`` do not)."""
-    return {ANSWER_KEYS[k]: v for k, v in head.items()}
+    (the long names of ``headline.json`` do not); the recommended design's id, a string, stays in the headline."""
+    return {ANSWER_KEYS[k]: v for k, v in head.items() if k in ANSWER_KEYS}
 
 
 __all__ = [
+    "FTP_BAGS_S",
+    "RECOMMENDED_RESPONSES",
+    "bag_figures",
+    "failed_cycles",
+    "recommendation",
     "ANSWER_KEYS",
     "answer",
     "IMPROVEMENT_RESPONSES",

@@ -1,15 +1,18 @@
 """The ``hev`` command: one sub-command per pipeline stage.
 
-Every module in ``stages/`` (other than this one and ``common``) registers its command on ``app``
-when imported; :func:`_register` imports them all, so adding a stage is adding a module.
+Every module in ``stages/`` (other than this one and ``common``) registers its commands on ``app`` when
+imported. ``hev <command>`` imports only that command's module (found from the sources by
+:func:`command_index`, nothing imported), so ``hev --help`` answers at once and a bad input
+fails before a stage's heavy imports; :func:`register_all` imports every module (tests, ``CliRunner``).
 """
 
 from __future__ import annotations
 
+import ast
 import importlib
 import os
-import pkgutil
 import sys
+from pathlib import Path
 
 import typer
 
@@ -18,19 +21,54 @@ app = typer.Typer(
     no_args_is_help=True,
     help="hev-sizing: size a power-split hybrid conversion of a conventional car.",
 )
-
-_NOT_STAGES = {"cli", "common"}
-
-
-def _register() -> None:
-    import stages
-
-    for mod in sorted(pkgutil.iter_modules(stages.__path__), key=lambda m: m.name):
-        if mod.name not in _NOT_STAGES and not mod.name.startswith("_"):
-            importlib.import_module(f"stages.{mod.name}")
+STAGES_ROOT = Path(__file__).resolve().parents[1]
 
 
-_register()
+@app.callback()
+def _root() -> None:
+    """hev-sizing: size a power-split hybrid conversion of a conventional car."""
+
+
+def command_index(root: Path) -> dict[str, tuple[str, str]]:
+    """Each ``hev`` command with the ``stages`` module that registers it (``@app.command("name")``) and the
+    first paragraph of its docstring, read from the sources under ``root`` (nothing imported)."""
+    out: dict[str, tuple[str, str]] = {}
+    for path in sorted((root / "stages").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.FunctionDef):
+                for deco in node.decorator_list:
+                    if isinstance(deco, ast.Call) and getattr(deco.func, "attr", None) == "command":
+                        name = deco.args[0].value if deco.args else node.name.replace("_", "-")
+                        doc = (ast.get_docstring(node) or "").strip().split("\n\n")[0].replace("\n", " ")
+                        out[name] = (f"stages.{path.stem}", doc)
+    return out
+
+
+def _index() -> dict[str, tuple[str, str]]:
+    return command_index(STAGES_ROOT)
+
+
+def register_all() -> None:
+    """Import every stage module, registering all commands on ``app``."""
+    for module, _ in sorted(set(_index().values())):
+        importlib.import_module(module)
+
+
+def _register_for(args: list[str]) -> None:
+    """Register what ``args`` needs: the named command's module only; for help or an unknown command, a
+    listing of every command (name and first docstring line) without importing any stage."""
+    index = _index()
+    name = next((a for a in args if not a.startswith("-")), None)
+    if name in index:
+        importlib.import_module(index[name][0])
+        return
+    for command, (_, doc) in sorted(index.items()):
+        app.command(command, help=doc, short_help=doc, add_help_option=False)(_listed)
+
+
+def _listed() -> None:  # pragma: no cover - a listing entry; `hev <command>` imports the real one
+    raise typer.Exit(code=2)
+
 
 #: Python's string hashing is salted per process unless PYTHONHASHSEED is set. pymoo's resumed NSGA-III
 #: search (the infill rounds) turned out to depend on it (measured: seeds 1-4 gave three different
@@ -43,6 +81,7 @@ def main() -> None:
     if os.environ.get("PYTHONHASHSEED") != HASH_SEED:
         os.environ["PYTHONHASHSEED"] = HASH_SEED
         os.execv(sys.executable, [sys.executable, "-m", "stages.cli", *sys.argv[1:]])
+    _register_for(sys.argv[1:])
     app(prog_name="hev")
 
 

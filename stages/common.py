@@ -48,7 +48,8 @@ def interactive() -> bool:
 
 @contextmanager
 def progress_callback(description: str) -> Iterator[Callable[[int, int], None] | None]:
-    """A ``progress(n_done, n_total)`` callback drawing a bar for a person at a terminal, else None."""
+    """A ``progress(n_done, n_total[, what])`` callback drawing a bar for a person at a terminal, else None;
+    ``what`` replaces the bar's label (e.g. ``moead: round 2/4, 120/200 gen``)."""
     if not interactive():
         yield None
         return
@@ -56,7 +57,11 @@ def progress_callback(description: str) -> Iterator[Callable[[int, int], None] |
 
     with Progress(transient=True) as bar:
         task = bar.add_task(description, total=None)
-        yield lambda done, total: bar.update(task, completed=done, total=total)
+
+        def update(done: int, total: int, what: str | None = None) -> None:
+            bar.update(task, completed=done, total=total, **({"description": what} if what else {}))
+
+        yield update
 
 
 def cycle_named(name: str):

@@ -11,6 +11,7 @@ from hevlib.io import read_table, write_json, write_parquet, write_text
 from hevlib.pareto import judged_normalisation, select_designs, source_summary, table_schema
 from hevlib.plots import save_figure
 from hevlib.plots.pareto import distributions_figure, infill_figure, tradeoff_data, tradeoffs_figure
+from hevlib.recommend import active_bounds
 from hevlib.tables import scan
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, stage
@@ -46,6 +47,7 @@ def pareto(params_path: str = PARAMS_OPTION) -> None:
     additions, hv_wall_s = source_summary(fronts, archives, reports, result.merged, params.screen, o, norm)
     result.summary.update(additions)
     kept = result.merged.filter(pl.col("kept")).to_pandas()  # matplotlib's edge
+    result.summary["active_bounds"] = active_bounds(kept, params.design_space)
     figures = {
         "tradeoffs.png": tradeoffs_figure(kept, algos),
         "distributions.png": distributions_figure(kept, algos),
@@ -64,5 +66,10 @@ def pareto(params_path: str = PARAMS_OPTION) -> None:
     c = result.summary["counts"]
     print(
         f"pareto: {c['merged']} designs, {c['nondominated']} non-dominated, {c['feasible']} feasible, "
-        f"{c['kept']} kept, {c['picked']} picked -> {SELECTED}"
+        f"{c['kept']} kept, {c['picked']} picked ({params.screen.pick}) -> wrote {MERGED}, {SELECTED}, {METRICS}"
     )
+    for flag in result.summary["active_bounds"]["flagged"]:
+        print(
+            f"pareto: {flag['variable']} at its {flag['side']} bound {flag['bound']:g} in "
+            f"{100 * flag['kept_share']:.0f} % of the kept designs: widen design_space.{flag['variable']}"
+        )

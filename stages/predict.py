@@ -31,8 +31,8 @@ def predict(
 
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ValueError(f"{out}: unsupported output format (use .csv or .parquet)")
-    X = read_designs(designs)
     surrogate = load_surrogate(model, models_dir)
+    X = read_designs(designs, surrogate.space, integers=False)  # the model's own space; its lines named
     table = prediction_table(surrogate, X)
     write_prediction_table(out, table)
     typer.echo(f"predict: {len(table)} designs with {model} -> {out}")

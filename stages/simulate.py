@@ -4,27 +4,27 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
 import typer
 
-from hevlib.design import read_designs
-from hevlib.io import write_table
-from hevlib.sim.simulator import VEHICLES, with_inputs
 from stages.cli import app
 from stages.common import PARAMS_OPTION, cycle_named, params_from, simulator, stage
 
 #: Designs ``--trace`` records at most (a trace is one row per step and design).
 MAX_TRACED = 50
+#: The kinds of vehicle ``--vehicle`` takes (hevlib.sim.vehicles.VEHICLES, named here so that a bad value fails
+#: before the simulator loads; a test holds the two equal).
+VEHICLES = ("hybrid", "prius", "conventional")
 
 
 @app.command("simulate")
 @stage
 def simulate(
     designs: Path = typer.Option(None, "--designs", help="CSV or Parquet with the seven design-variable columns"),
-    cycle: str = typer.Option(..., "--cycle", help="cycle name (data/cycles/<name>.parquet)"),
+    cycle: str = typer.Option(
+        ..., "--cycle", help="a cycle of params.yaml's cycles.cycles (udds, ftp, hwfet, us06, nedc by default)"
+    ),
     grade: float = typer.Option(None, "--grade", help="road grade in percent; overrides the cycle's own grade"),
-    vehicle: str = typer.Option("hybrid", "--vehicle", help="hybrid | conventional | prius"),
+    vehicle: str = typer.Option("hybrid", "--vehicle", help="hybrid, conventional or prius"),
     out: Path = typer.Option(..., "--out", help="output table (.csv or .parquet)"),
     trace: Path = typer.Option(
         None,
@@ -35,27 +35,41 @@ def simulate(
     params: str = PARAMS_OPTION,
 ) -> None:
     """Simulate designs (or a baseline) and write the inputs plus every response, one row per design."""
-    p = params_from(params)
+    p = params_from(params)  # every input is checked before the simulator (numba) is loaded
     if vehicle not in VEHICLES:
         raise ValueError(f"--vehicle: {vehicle!r} is not one of {', '.join(VEHICLES)}")
     if cycle not in p.cycles.cycles:
         raise ValueError(f"--cycle: {cycle!r} is not one of {', '.join(p.cycles.cycles)}")
-    cyc = cycle_named(cycle)
-    if grade is not None:
-        if not -30.0 <= grade <= 30.0:
-            raise ValueError(f"--grade: {grade:g} % is outside [-30, 30] %")
-        cyc = cyc.with_grade(grade / 100.0)
-    sim = simulator(p)
+    if grade is not None and not -30.0 <= grade <= 30.0:
+        raise ValueError(f"--grade: {grade:g} % is outside [-30, 30] %")
+    for path in (out, trace):
+        if path is not None and path.suffix.lower() not in (".csv", ".parquet"):
+            raise ValueError(f"{path}: write a .csv or .parquet table")
+    X = None
     if vehicle == "hybrid":
         if designs is None:
             raise ValueError("--designs: a design table is required for --vehicle hybrid")
-        X = read_designs(designs)
+        from hevlib.design import read_designs
+
+        X = read_designs(designs, p.design_space.space())
         if trace is not None and len(X) > MAX_TRACED:
             raise ValueError(f"--trace: {len(X)} designs; traces are for at most {MAX_TRACED}")
+    elif designs is not None:
+        raise ValueError(f"--designs: only for --vehicle hybrid ({vehicle} is a fixed car; drop --designs)")
+    cyc = cycle_named(cycle)
+    if grade is not None:
+        cyc = cyc.with_grade(grade / 100.0)
+
+    import numpy as np
+    import pandas as pd
+
+    from hevlib.io import write_table
+    from hevlib.sim.simulator import with_inputs
+
+    sim = simulator(p)
+    if vehicle == "hybrid":
         table = with_inputs(X, sim.run(X, cyc, "hybrid", batch_size=p.doe.batch_size))
     else:
-        if designs is not None:
-            raise ValueError(f"--designs: only for --vehicle hybrid ({vehicle} is a fixed car; drop --designs)")
         X = np.array([list(sim.design_of(vehicle).values())])
         table = with_inputs(X, sim.run(None, cyc, vehicle))
     table.insert(0, "vehicle", vehicle)
@@ -68,3 +82,5 @@ def simulate(
     write_table(out, pd.DataFrame(table))
     if traces is not None:
         write_table(trace, traces)
+    wrote = f"{out}" + (f" and {trace}" if traces is not None else "")
+    typer.echo(f"simulate: {len(table)} {'design' if vehicle == 'hybrid' else vehicle}(s) on {cycle} -> wrote {wrote}")

@@ -7,24 +7,29 @@ from pathlib import Path
 
 import typer
 
+from hevlib.explorer import explorer_data, write_explorer
 from hevlib.io import read_table, write_json, write_parquet, write_text
 from hevlib.plots import save_figure
 from hevlib.plots.validation import catalyst_figure, improvement_figure, traces_figure
 from hevlib.report import build_summary
 from hevlib.validation import (
+    FTP_BAGS_S,
     answer,
+    bag_figures,
     cold_start_window_s,
     cycle_notes,
+    failed_cycles,
     headline,
     load_cycles,
     prius_design,
+    recommendation,
     summarise,
     traces,
     validation_schema,
     validation_table,
 )
 from stages.cli import app
-from stages.common import CYCLES_DIR, PARAMS_OPTION, params_from, simulator, stage
+from stages.common import CYCLES_DIR, PARAMS_OPTION, cycle_named, params_from, simulator, stage
 
 SELECTED = Path("data/pareto/selected.parquet")
 PARETO_JSON = Path("reports/pareto.json")
@@ -33,6 +38,8 @@ METRICS = Path("reports/validation.json")
 HEADLINE = Path("reports/headline.json")
 ANSWER = Path("reports/answer.json")  # the declared DVC metric: the headline under short keys
 SUMMARY = Path("reports/summary.md")
+EXPLORER = Path("reports/explorer.html")
+MERGED = Path("data/pareto/merged.parquet")
 PLOTS_DIR = Path("reports/plots/validation")
 
 
@@ -52,7 +59,15 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
 
     sim = simulator(params)
     table = validation_table(sim, selected, cycles, prius_x)
+    sizing_name = params.cycles.sizing
+    sizing_cycle = cycle_named(sizing_name)
+    sizing = {v: sim.run(prius_x[None, :], sizing_cycle, v).iloc[0].to_dict() for v in ("prius", "conventional")}
     summary = summarise(table, algos, names, params.baseline.conventional.p_eng_kw)
+    rec = recommendation(table, selected, names, params.screen, params.design_space)
+    summary["recommendation"] = rec
+    summary["counts"]["failed_cycles"] = failed_cycles(table, names)
+    if rec["design"] is not None and names[0] == "ftp":
+        rec["design"]["ftp_bags"] = ftp_bags(sim, table, selected, rec["design"]["design_id"], cycles[0], prius_x)
 
     figures = {
         f"improvement_{c}.png": improvement_figure(
@@ -61,7 +76,7 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
         for c in names
     }
     notes = cycle_notes(cycles)
-    best = summary["best_design"]
+    best = rec["design"]["design_id"] if rec["design"] is not None else summary["best_design"]
     tr = traces(sim, selected, best, cycles[0], prius_x) if best is not None else None
     if tr is not None:
         figures[f"traces_{names[0]}.png"] = traces_figure(tr, names[0])
@@ -79,10 +94,10 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     }
     plots.update({f"Improvement on {c}": f"plots/validation/improvement_{c}.png" for c in names})
     if tr is not None:
-        caption = f"{names[0]} traces: best design {best} against both baselines"
+        caption = f"{names[0]} traces: recommended design {best} against both baselines"
         plots[caption] = f"plots/validation/traces_{names[0]}.png"
         if f"catalyst_{names[0]}.png" in figures:
-            caption = f"{names[0]} cold start: catalyst warm-up of best design {best} against both baselines"
+            caption = f"{names[0]} cold start: catalyst warm-up of recommended design {best} against both baselines"
             plots[caption] = f"plots/validation/catalyst_{names[0]}.png"
     text = build_summary(pareto, summary, table, selected, plots, notes)
 
@@ -91,7 +106,30 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     head = headline(summary)
     write_json(HEADLINE, head)
     write_json(ANSWER, answer(head))
+    write_explorer(EXPLORER, explorer_data(read_table(MERGED), sizing, best if rec["design"] else None, sizing_name))
     for name, fig in figures.items():
         save_figure(fig, PLOTS_DIR / name)
     write_text(SUMMARY, text)
-    typer.echo(f"validate: {summary['counts']['picked']} picks on {', '.join(names)} -> {METRICS}, {SUMMARY}")
+    typer.echo(
+        f"validate: {summary['counts']['picked']} picks on {', '.join(names)}; recommended "
+        f"{best if rec['design'] is not None else 'none'} -> wrote {TABLE}, {METRICS}, {HEADLINE}, {ANSWER}, "
+        f"{SUMMARY}, {EXPLORER}"
+    )
+
+
+def ftp_bags(sim, table, selected, design_id: str, ftp, prius_x) -> dict:
+    """Bag-by-bag FTP figures of the recommended design and both baselines, each from the SOC its
+    charge-balanced run started at (the conventional car has no battery: its own start)."""
+    import numpy as np
+
+    from hevlib.design import design_matrix
+
+    rows = table[table["cycle"] == ftp.name].set_index("vehicle")
+    density = sim.library.lib.engine_hybrid.fuel_density_g_per_l  # as every fc figure (hevlib.sim.simulator.responses)
+    x = design_matrix(selected[selected["design_id"].astype(str) == design_id])
+    out = {}
+    for name, X, kind in ((design_id, x, "hybrid"), ("prius", np.asarray(prius_x)[None, :], "prius")):
+        soc = float(rows.loc[name, "soc_init_charge_balanced"])
+        out[name] = bag_figures(sim.trace(X, ftp, kind, soc_init=soc), ftp, density, FTP_BAGS_S)
+    out["conventional"] = bag_figures(sim.trace(None, ftp, "conventional"), ftp, density, FTP_BAGS_S)
+    return out

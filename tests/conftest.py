@@ -9,6 +9,9 @@ import pytest
 from hevlib.components import ComponentLibrary
 from hevlib.params import Params, load_params
 from hevlib.sizing import study_library
+from stages.cli import register_all
+
+register_all()  # `hev <command>` imports only its own module; CliRunner tests invoke any command on `app`
 
 ROOT = Path(__file__).resolve().parents[1]
 RAW = ROOT / "data" / "raw"

@@ -85,7 +85,7 @@ def test_doe_designs_methods_and_sources():
     assert doe.doe_designs("l27", 10, 1, SPACE, L27)[0].shape == (27, 7)
     assert set(doe.doe_designs("lhs", 10, 1, SPACE, L27)[1]) == {"lhs"}
     small = DesignSpace(SPACE.lower, np.where(np.array(DESIGN_VARS) == "p_eng_kw", 45.0, SPACE.upper))
-    with pytest.raises(ValueError, match=r"p_eng_kw=50 in row 0 is outside the design space"):
+    with pytest.raises(ValueError, match=r"p_eng_kw=50 in row 1 is outside the design space"):
         doe.doe_designs("l27", 10, 1, small, L27)
 
 

@@ -223,9 +223,22 @@ def test_screening_in_sequence_counts_only_designs_still_present():
     t = screening_table()
     feasible, _, report = apply_screening(t, screening_rules(ScreenParams()))
     assert list(feasible) == [True, False, False, False, False, True]
-    assert [report[r]["removed_in_sequence"] for r in report] == [2, 0, 1, 1, 0]
-    assert [report[r]["fails_alone"] for r in report] == [2, 0, 2, 2, 3]
+    assert [report[r]["removed_in_sequence"] for r in report] == [2, 0, 1, 1, 0, 0]
+    assert [report[r]["fails_alone"] for r in report] == [2, 0, 2, 2, 3, None]  # no sim_v_max: not evaluated
     assert report["buildable_gear_set"]["remaining_after"] == 2
+
+
+def test_the_highway_rule_is_reported_when_off_and_screens_when_on():
+    t = screening_table()
+    t["sim_v_max"] = [150.0, 120.0, 140.0, 125.0, 160.0, 129.0]
+    off = apply_screening(t, screening_rules(ScreenParams()))[2]["min_v_max"]
+    assert off["enabled"] is False and off["limit"] == 130.0 and off["fails_alone"] == 3  # US06's peak, reported
+    assert off["removed_in_sequence"] == 0
+    feasible, masks, report = apply_screening(t, screening_rules(ScreenParams(min_v_max_kmh=128.0)))
+    assert list(masks["min_v_max"]) == [True, False, True, False, True, True]
+    assert list(feasible) == [True, False, False, False, False, True]  # rows 1 and 3 were out already
+    with pytest.raises(ValueError, match="min_v_max: the table has no column sim_v_max"):
+        apply_screening(screening_table(), screening_rules(ScreenParams(min_v_max_kmh=128.0)))
 
 
 def test_a_stalled_design_is_screened_out_whatever_its_objectives():
@@ -276,7 +289,7 @@ def _fronts():
 
 
 def test_select_designs_keeps_the_best_ranked_and_picks_among_them():
-    screen = ScreenParams(n_keep=20, n_pick=6, speed_dev_max=0.75, mass_max_kg=1250.0)
+    screen = ScreenParams(n_keep=20, n_pick=6, speed_dev_max=0.75, mass_max_kg=1250.0, pick="random")
     fronts = _fronts()
     fronts["moead"].iloc[0, :] = fronts["nsga3"].iloc[0, :].to_numpy()  # one shared design
     res = select_designs(fronts, screen)

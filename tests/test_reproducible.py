@@ -43,6 +43,11 @@ def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path
     lines = shown.stdout.splitlines()
     assert shown.returncode == 0 and len(lines) == 2, shown.stdout + shown.stderr  # header + answer.json
     assert max(map(len, lines)) <= 120, shown.stdout  # fits a terminal
+    # `hev exp-show`: dvc exp show without the ~95 file columns; the answer's figures readable at 120 columns
+    exp = subprocess.run(["hev", "exp-show"], cwd=clone, env={**env, "COLUMNS": "120"}, capture_output=True, text=True)
+    assert exp.returncode == 0, exp.stderr
+    header = next(line for line in exp.stdout.splitlines() if "Experiment" in line)
+    assert max(map(len, exp.stdout.splitlines())) <= 120 and "fc_cb_pct" in header and "rec_fc_cb_pct" in header
 
     # the README's way back from an experiment: git restores params, dvc.lock and reports; DVC the pictures
     plots = _digests(clone / "reports/plots")

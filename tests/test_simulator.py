@@ -470,7 +470,7 @@ def test_hev_simulate_writes_inputs_and_every_response(stage_dir):
         (["--designs", "missing.csv", "--cycle", "ftp"], "missing.csv"),
         (["--designs", "empty.csv", "--cycle", "ftp"], "empty.csv: empty file (no header, no rows)"),
         (["--designs", "header.csv", "--cycle", "ftp"], "header.csv: no designs (a header but no rows)"),
-        (["--designs", "text.csv", "--cycle", "ftp"], "text.csv: i0 is not a number in row 2 ('abc')"),
+        (["--designs", "text.csv", "--cycle", "ftp"], "text.csv: i0 is not a number in line 3 (abc)"),
         (["--designs", "d.csv", "--cycle", "ftp", "--vehicle", "prius"], "--designs: only for --vehicle hybrid"),
     ],
 )

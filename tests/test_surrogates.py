@@ -398,7 +398,7 @@ def test_log_targets_offsets_and_round_trip():
 def test_log_targets_errors_name_the_objective():
     Y = np.abs(smooth_truth(uniform_designs(20, 1))) + 0.1
     Y[3, DIFF_SOC] = -0.05
-    with pytest.raises(ValueError, match=r"diff_soc has negative values \(min -0.05 in row 3\)"):
+    with pytest.raises(ValueError, match=r"diff_soc has negative values \(min -0.05 in row 4\)"):
         LogTargets.fit(("fc", "diff_soc"), Y)
     with pytest.raises(ValueError, match=r"unknown objective 'fuel'"):
         BayesRegMLP(SPACE, max_epochs=2, log_targets=("fc", "fuel")).fit(uniform_designs(20, 1), Y)
@@ -509,11 +509,11 @@ def test_predict_rejects_bad_designs_naming_the_variable(kind, bnn_fit, reg_fit)
     model = bnn_fit[0] if kind == "bnn" else reg_fit
     x = uniform_designs(3, 12)
     x[1, 2] = 31.0  # p_gen_kw above 30
-    with pytest.raises(ValueError, match=r"p_gen_kw=31 in row 1 is outside the design space \[5, 30\]"):
+    with pytest.raises(ValueError, match=r"p_gen_kw=31 in row 2 is outside the design space \[5, 30\]"):
         model.predict(x)
     x = uniform_designs(3, 12)
     x[2, 3] = np.nan
-    with pytest.raises(ValueError, match=r"i0 is not finite \(NaN or inf\) in row 2"):
+    with pytest.raises(ValueError, match=r"i0 is not finite \(NaN or inf\) in row 3"):
         model.predict(x)
     with pytest.raises(ValueError, match=r"expected shape \(n, 7\)"):
         model.predict(np.ones((4, 6)))
@@ -526,7 +526,7 @@ def test_fit_rejects_non_finite_objectives():
     X = uniform_designs(20, 13)
     Y = smooth_truth(X)
     Y[5, OBJECTIVES.index("nox")] = np.inf
-    with pytest.raises(ValueError, match=r"nox is not finite \(NaN or inf\) in row 5"):
+    with pytest.raises(ValueError, match=r"nox is not finite \(NaN or inf\) in row 6"):
         LinearRegressions(SPACE).fit(X, Y)
     with pytest.raises(ValueError, match=r"expected shape \(20, 11\)"):
         BayesRegMLP(SPACE).fit(X, Y[:, :10])
@@ -877,7 +877,7 @@ def test_predict_cli_on_a_tiny_model(tmp_path, monkeypatch, reg_fit):
     out = runner.invoke(
         app, ["predict", "--model", "regression", "--designs", "bad.csv", "--out", "p.csv", "--models-dir", "m"]
     )
-    assert out.exit_code == 1 and "n_s=45 in row 2 is outside the design space" in out.output
+    assert out.exit_code == 1 and "n_s=45 in line 4 is outside the design space" in out.output
     out = runner.invoke(
         app, ["predict", "--model", "regression", "--designs", "d.parquet", "--out", "p.txt", "--models-dir", "m"]
     )

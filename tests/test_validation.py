@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import shutil
 import sys
+import traceback
 import types
 from pathlib import Path
 
@@ -102,6 +103,7 @@ class FakeSimulator:
         row["charge_balance_runs"] = 2.0
         row["charge_balance_residual"] = 0.001
         row["charge_balanced"] = True
+        row["soc_init_charge_balanced"] = 0.6
         return row
 
     def run(self, X, cycle, vehicle="hybrid", batch_size=1000, progress=None, charge_balanced=False):
@@ -111,15 +113,20 @@ class FakeSimulator:
         cols = list(RESPONSES) + (list(CHARGE_BALANCE_RESPONSES) if charge_balanced else [])
         return pd.DataFrame(rows, columns=cols)
 
-    def trace(self, X, cycle, vehicle):
+    library = types.SimpleNamespace(
+        lib=types.SimpleNamespace(engine_hybrid=types.SimpleNamespace(fuel_density_g_per_l=749.0))
+    )
+
+    def trace(self, X, cycle, vehicle, soc_init=None):
         t = cycle.time_s
         return pd.DataFrame(
             {
                 "time_s": t,
                 "v_ref_mps": cycle.speed_mps,
                 "v_mps": cycle.speed_mps * 0.98,
-                "soc": np.full(len(t), 0.6),
+                "soc": np.full(len(t), 0.6 if soc_init is None else soc_init),
                 "fuel_g_s": np.full(len(t), 0.3),
+                **{f"{gas}_tailpipe_g_s": np.full(len(t), 0.001) for gas in ("hc", "co", "nox")},
             }
         )
 
@@ -238,19 +245,20 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
     monkeypatch.setitem(sys.modules, "hevlib.sim.simulator", fake)
     runner = CliRunner()
     assert runner.invoke(app, ["validate"]).exit_code == 1  # nothing there yet: one-line error
-    for name in ("ftp", "hwfet"):
+    for name in ("ftp", "hwfet", "us06", "udds"):
         _cycle(name).to_parquet(f"data/cycles/{name}.parquet")
     res = select_designs(
         {"nsga3": synthetic_front(40, 1), "moead": synthetic_front(30, 2), "moga": synthetic_front(30, 3)},
         ScreenParams(n_keep=10, n_pick=4, speed_dev_max=1.0, mass_max_kg=2000),
     )
     write_parquet("data/pareto/selected.parquet", res.selected)
+    write_parquet("data/pareto/merged.parquet", res.merged)
     Path("reports").mkdir()
     Path("reports/pareto.json").write_text(json.dumps(res.summary))
     out = runner.invoke(app, ["validate"])
-    assert out.exit_code == 0, out.output
+    assert out.exit_code == 0, "".join(traceback.format_exception(*out.exc_info)) if out.exc_info else out.output
     table = pd.read_parquet("reports/validation.parquet")
-    assert len(table) == 2 * (len(res.selected) + 2)
+    assert len(table) == 3 * (len(res.selected) + 2)  # ftp, hwfet, us06
     metrics = json.loads(Path("reports/validation.json").read_text())
     assert metrics["improvement"]["all"]["vs_conventional"]["diff_soc"] is None
     head = json.loads(Path("reports/headline.json").read_text())  # the declared DVC metric: the answer only
@@ -261,10 +269,23 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
         "mass_saving_pct": metrics["improvement"]["all"]["vs_conventional"]["m_veh"],
         "p_eng_kw": metrics["mean_p_eng_kw"]["all"],
         "n_picks": len(res.selected),
+        "recommended_design": metrics["recommendation"]["design"]["design_id"],
+        "recommended_fc_saving_charge_balanced_pct": metrics["recommendation"]["design"]["by_cycle"]["ftp"][
+            "vs_conventional"
+        ]["fc_charge_balanced"],
     }
     short = json.loads(Path("reports/answer.json").read_text())  # the declared DVC metric: short keys
-    assert short == {ANSWER_KEYS[k]: v for k, v in head.items()} and len(set(short)) == len(head)
+    assert short == {ANSWER_KEYS[k]: v for k, v in head.items() if k in ANSWER_KEYS}
+    assert set(head) - set(ANSWER_KEYS) == {"recommended_design"}  # the one string stays in the headline
+    rec = metrics["recommendation"]
+    assert rec["design"]["fails"] == [] and rec["design"]["design_id"] in set(res.selected["design_id"])
+    assert set(rec["design"]["by_cycle"]) == {"ftp", "hwfet", "us06"}
+    assert [b["bag"] for b in rec["design"]["ftp_bags"]["prius"]] == [1, 2, 3]
+    assert Path("reports/explorer.html").stat().st_size > 1_000_000  # Plotly inlined
     summary = Path("reports/summary.md").read_text()
+    assert summary.startswith(
+        f"# hev-sizing: selection and validation summary\n\n## Build this\n\n**{rec['design']['design_id']}**"
+    )
     for png in ("improvement_ftp.png", "improvement_hwfet.png", "traces_ftp.png"):
         assert Path(f"reports/plots/validation/{png}").stat().st_size > 0
         assert f"plots/validation/{png}" in summary

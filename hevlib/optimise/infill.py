@@ -22,6 +22,7 @@ the oracle's archive when given. The thinned front's own hypervolume stays in ``
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -295,6 +296,11 @@ def own_normalisation(F_min: np.ndarray, preferred: np.ndarray) -> Normalisation
     return Normalisation.from_points(F_min[use])
 
 
+def _round_progress(progress: Callable, algo: str, r: int, rounds: int, done: int, total: int) -> None:
+    """Report a search's generations with its round: ``moead: round 2/4, 120/200 gen``."""
+    progress(done, total, f"{algo}: round {r}/{rounds}, {done}/{total} gen")
+
+
 def surrogate_assisted(
     algo: str,
     settings: AlgoParams,
@@ -334,7 +340,7 @@ def surrogate_assisted(
             round_settings,
             simulate,
             hv,
-            progress,
+            None if progress is None else functools.partial(_round_progress, progress, algo, r, infill.rounds),
             initial=population if resume else None,
             n_candidates=infill.designs_per_round,
             criterion=infill.criterion,

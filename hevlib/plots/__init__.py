@@ -20,9 +20,15 @@ DPI = 120
 
 
 def save_figure(fig: plt.Figure, path: str | os.PathLike) -> None:
-    """Save ``fig`` as PNG to ``path`` atomically and close it."""
+    """Save ``fig`` as PNG to ``path`` atomically and close it; the canvas grows to hold whatever is drawn
+    outside the axes (legends, long labels: ``bbox_inches="tight"``), so nothing is cropped."""
     fig.tight_layout()
-    save_with(path, lambda tmp: fig.savefig(tmp, dpi=DPI, format="png", metadata={"Software": None}))
+    save_with(
+        path,
+        lambda tmp: fig.savefig(
+            tmp, dpi=DPI, format="png", metadata={"Software": None}, bbox_inches="tight", pad_inches=0.1
+        ),
+    )
     plt.close(fig)
 
 

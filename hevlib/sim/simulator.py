@@ -107,7 +107,8 @@ def charge_balance(
     Returns the last run of every vehicle (accumulators, performance of ``first``) and the
     :data:`CHARGE_BALANCE_RESPONSES`: ``fc_charge_balanced`` (L/100 km of the balanced run; NaN where it did not
     balance), the runs it took, the residual (net battery energy / fuel energy of the last run) and whether it
-    balanced. A vehicle without a battery balances on its first run."""
+    balanced, and the SOC its last run started from (``soc_init_charge_balanced``). A vehicle without a battery
+    balances on its first run."""
     out = first.out.copy()
     soc0 = first.soc_init.copy()
     runs = np.ones(vehicle.n, dtype=np.int64)
@@ -132,6 +133,7 @@ def charge_balance(
             "charge_balance_runs": runs.astype(float),
             "charge_balance_residual": resid,
             "charge_balanced": ~todo,
+            "soc_init_charge_balanced": soc0,
         }
     )
     return last, frame
@@ -423,9 +425,13 @@ class Simulator:
             r = pd.concat([r, cb], axis=1)
         return res, r
 
-    def trace(self, X: np.ndarray | None, cycle: Cycle, vehicle: Kind = "hybrid") -> pd.DataFrame:
-        """Per-step traces (``TRACE_NAMES`` plus ``time_s``, ``design``) of a few designs."""
-        res = self.run_raw(X, cycle, vehicle, record=True, performance=False)
+    def trace(
+        self, X: np.ndarray | None, cycle: Cycle, vehicle: Kind = "hybrid", *, soc_init: float | None = None
+    ) -> pd.DataFrame:
+        """Per-step traces (``TRACE_NAMES`` plus ``time_s``, ``design``) of a few designs, from ``sim.soc_init``
+        or from ``soc_init`` (e.g. a charge-balanced run's ``soc_init_charge_balanced``)."""
+        v = self.vehicle(X, vehicle)
+        res = simulate(v if soc_init is None else v.with_soc_init(soc_init), cycle, record=True, performance=False)
         frames = []
         for i, tr in enumerate(res.traces):
             df = pd.DataFrame(tr, columns=list(TRACE_NAMES))

@@ -65,7 +65,7 @@ def check_targets(Y: np.ndarray, n: int, *, what: str = "surrogate targets") -> 
     for k, name in enumerate(OBJECTIVES):
         bad = ~np.isfinite(Y[:, k])
         if np.any(bad):
-            raise ValueError(f"{what}: {name} is not finite (NaN or inf) in row {int(np.argmax(bad))}")
+            raise ValueError(f"{what}: {name} is not finite (NaN or inf) in row {int(np.argmax(bad)) + 1}")
     return Y
 
 

@@ -67,7 +67,7 @@ class LogTargets:
             if np.any(y < 0):
                 row = int(np.argmin(y))
                 raise ValueError(
-                    f"{what}: {name} has negative values (min {y[row]:.6g} in row {row}); a log "
+                    f"{what}: {name} has negative values (min {y[row]:.6g} in row {row + 1}); a log "
                     f"transform needs values >= 0, so remove {name} from the list"
                 )
             if not np.any(y > 0):

@@ -1,0 +1,91 @@
+"""The `hev` command answers at once: `--help` lists every command without importing a stage, a command
+imports only its own module, and a bad input to `hev simulate` fails with one line -- the file's own line,
+1-based, no Python repr -- before the simulator is loaded."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from stages.cli import app, command_index
+
+REPO = Path(__file__).resolve().parents[1]
+HEAVY = ("numba", "pandas", "polars", "torch", "matplotlib", "pymoo")
+
+
+def _hev(*args: str, cwd: Path = REPO) -> tuple[subprocess.CompletedProcess, set[str]]:
+    """Run the app as `hev` does in a fresh interpreter; the heavy modules it had imported when it ended."""
+    code = (
+        "import sys, atexit\n"
+        f"atexit.register(lambda: print('IMPORTED', *[m for m in {HEAVY!r} if m in sys.modules], file=sys.stderr))\n"
+        "from stages import cli\n"
+        f"sys.argv = ['hev', *{list(args)!r}]\n"
+        "cli._register_for(sys.argv[1:])\n"
+        "cli.app(prog_name='hev')\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=cwd, capture_output=True, text=True, timeout=120)
+    line = next(x for x in out.stderr.splitlines() if x.startswith("IMPORTED"))
+    return out, set(line.split()[1:])
+
+
+def test_help_lists_every_command_without_importing_a_stage():
+    out, heavy = _hev("--help")
+    assert out.returncode == 0, out.stderr
+    for name in command_index(REPO):
+        assert name in out.stdout
+    assert heavy == set()
+
+
+def test_the_index_read_from_the_sources_is_what_the_modules_register():
+    registered = {
+        c.name: c.callback.__module__ for c in app.registered_commands if c.callback.__module__ != "stages.cli"
+    }
+    assert registered == {name: module for name, (module, _) in command_index(REPO).items()}
+
+
+@pytest.mark.parametrize(
+    ("rows", "message"),
+    [
+        ("40,30,15,3.9,25,78,30\n40,30,,3.9,25,78,30\n", "p_gen_kw is not a number in line 3 (empty)"),
+        ("40,30,15,3.9,25,78,30\n40,30,15,3.9,abc,78,30\n", "n_bat is not a number in line 3 (abc)"),
+        (
+            "40,30,15,3.9,25,78,30\n90,30,15,3.9,25,78,30\n",
+            "p_eng_kw=90 in line 3 is outside the design space [25, 70]",
+        ),
+        ("40,30,15,3.9,25.5,78,30\n", "n_bat=25.5 in line 2 must be an integer"),
+    ],
+)
+def test_a_bad_designs_file_fails_on_its_own_line_before_the_simulator_loads(tmp_path, rows, message):
+    designs = tmp_path / "d.csv"
+    designs.write_text("p_eng_kw,p_mot_kw,p_gen_kw,i0,n_bat,n_r,n_s\n" + rows)
+    out, heavy = _hev(
+        "simulate",
+        "--designs",
+        str(designs),
+        "--cycle",
+        "udds",
+        "--out",
+        str(tmp_path / "o.csv"),
+        "--params",
+        str(REPO / "params.yaml"),
+    )
+    assert out.returncode == 1
+    err = [x for x in out.stderr.splitlines() if not x.startswith("IMPORTED")]
+    assert err == [f"error: {designs}: {message}"]
+    assert "numba" not in heavy and "np." not in out.stderr
+
+
+def test_a_bad_cycle_lists_the_valid_names():
+    out, heavy = _hev("simulate", "--cycle", "nope", "--out", "o.csv")
+    assert "error: --cycle: 'nope' is not one of udds, ftp, hwfet, us06, nedc" in out.stderr
+    assert out.returncode == 1 and "numba" not in heavy
+
+
+def test_simulate_names_the_vehicles_the_simulator_knows():
+    from hevlib.sim.vehicles import VEHICLES
+    from stages.simulate import VEHICLES as CLI_VEHICLES
+
+    assert CLI_VEHICLES == VEHICLES
