@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import typer
+
 from hevlib.io import write_json
 from hevlib.plots.maps import write_map_plots
 from hevlib.sizing import study_library, study_report
@@ -25,3 +27,4 @@ def components(params: str = PARAMS_OPTION) -> None:
     lib.save(OUT_DIR)
     write_json(REPORT, report)
     write_map_plots(lib, PLOT_DIR)
+    typer.echo(f"components: normalised maps -> wrote {OUT_DIR}, {REPORT}, {PLOT_DIR}/maps_*.png")

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import typer
+
 from hevlib.cycles import build_cycles, write_cycles
 from hevlib.plots.cycles import plot_speed_traces
 from stages.cli import app
@@ -22,3 +24,4 @@ def cycles(params: str = PARAMS_OPTION) -> None:
     built = build_cycles(cfg)
     write_cycles(built, OUT_DIR, REPORT)
     plot_speed_traces([built[cfg.sizing], built[cfg.validation]], PLOT)
+    typer.echo(f"cycles: {', '.join(built)} -> wrote {OUT_DIR}/<name>.parquet, {REPORT}, {PLOT}")
