@@ -5,9 +5,12 @@ from __future__ import annotations
 import functools
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:  # imported where used (design_matrix): params load without pandas
+    import pandas as pd
 
 #: The seven design variables, in the column order every array uses.
 DESIGN_VARS: tuple[str, ...] = ("p_eng_kw", "p_mot_kw", "p_gen_kw", "i0", "n_bat", "n_r", "n_s")
@@ -167,6 +170,8 @@ def _shown(value) -> str:
 
 def design_matrix(table: pd.DataFrame, *, what: str = "designs", first_line: int | None = None) -> np.ndarray:
     """The (n, 7) design matrix from a table with the seven design-variable columns."""
+    import pandas as pd
+
     missing = [v for v in DESIGN_VARS if v not in table.columns]
     if missing:
         raise ValueError(f"{what}: missing design-variable column(s) {', '.join(missing)}")

@@ -8,13 +8,15 @@ import tempfile
 from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
-import polars as pl
-import pyarrow as pa
-import pyarrow.parquet as pq
 import yaml
+
+if TYPE_CHECKING:  # imported where used: `hev` validates params before a stage loads pandas, polars, pyarrow
+    import pandas as pd
+    import polars as pl
+    import pyarrow as pa
 
 _UMASK = os.umask(0)
 os.umask(_UMASK)
@@ -77,6 +79,8 @@ def write_parquet(
     metadata: dict[str, str] | None = None,
 ) -> None:
     """Write a Parquet file with an explicit schema (columns must match it exactly)."""
+    import pyarrow.parquet as pq
+
     from hevlib.tables import to_arrow
 
     table = to_arrow(table, schema)
@@ -149,6 +153,9 @@ def write_table(path: str | os.PathLike, table: pd.DataFrame, *, float_format: s
 
 def read_table(path: str | os.PathLike) -> pd.DataFrame:
     """Read a CSV or Parquet table, naming the file in any error."""
+    import pandas as pd
+    import pyarrow as pa
+
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such file")
@@ -166,4 +173,6 @@ def read_table(path: str | os.PathLike) -> pd.DataFrame:
 
 def float_schema(columns: list[str], extra: list[pa.Field] | None = None) -> pa.Schema:
     """A schema of float64 columns in the given order, plus any extra typed fields."""
+    import pyarrow as pa
+
     return pa.schema([pa.field(c, pa.float64()) for c in columns] + list(extra or []))

@@ -374,7 +374,7 @@ def _build_this(validation: Mapping, pareto: Mapping) -> list[str]:
     hw = rec["highway_rule"]
     out.append(
         f"Highway rule (`screen.min_v_max_kmh`): {'on' if hw['enabled'] else 'off'} at {hw['min_v_max_kmh']:g} km/h; "
-        f"{len(hw['picks_below'])} of the picks fall short of it on the sizing cycle's top-speed test."
+        f"{len(hw['picks_below'])} of the picks fall short of it in the flat-road top-speed test."
     )
     ab = pareto.get("active_bounds")
     if ab:

@@ -89,3 +89,15 @@ def test_simulate_names_the_vehicles_the_simulator_knows():
     from stages.simulate import VEHICLES as CLI_VEHICLES
 
     assert CLI_VEHICLES == VEHICLES
+
+
+@pytest.mark.parametrize("command", ["pareto", "surrogates", "validate", "doe", "optimise nsga3"])
+def test_a_bad_params_file_stops_a_stage_before_its_module_loads(tmp_path, command):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text((REPO / "params.yaml").read_text().replace("  n_pick: 15", "  n_pick: 15\n  n_pik: 3"))
+    out, heavy = _hev(*command.split(), "--params", str(bad))
+    err = [x for x in out.stderr.splitlines() if not x.startswith("IMPORTED")]
+    assert out.returncode == 1 and len(err) == 1 and err[0].startswith("error: ") and "n_pik" in err[0]
+    assert heavy == set()  # not even pandas: the stage's module was never imported
+    out, _ = _hev(*command.split(), "--params", str(tmp_path / "missing.yaml"))
+    assert out.returncode == 1 and "missing.yaml" in out.stderr
