@@ -477,6 +477,20 @@ def bag_figures(trace: pd.DataFrame, cycle: Cycle, density_g_per_l: float, bags:
 FTP_BAGS_S: tuple[tuple[float, float], ...] = ((0.0, 505.0), (505.0, 1372.0), (1972.0, 2477.0))
 
 
+def ftp_bags(sim, table: pd.DataFrame, selected: pd.DataFrame, design_id: str, ftp: Cycle, prius_x) -> dict:
+    """Bag-by-bag FTP figures (:func:`bag_figures`) of one picked design and both baselines, each hybrid traced
+    from the SOC its charge-balanced run started at (the conventional car has no battery: its own start)."""
+    rows = table[table["cycle"] == ftp.name].set_index("vehicle")
+    density = sim.library.lib.engine_hybrid.fuel_density_g_per_l  # as every fc figure (hevlib.sim.simulator)
+    x = design_matrix(selected[selected["design_id"].astype(str) == design_id])
+    out = {}
+    for name, X, kind in ((design_id, x, "hybrid"), ("prius", np.asarray(prius_x, dtype=float)[None, :], "prius")):
+        soc = float(rows.loc[name, "soc_init_charge_balanced"])
+        out[name] = bag_figures(sim.trace(X, ftp, kind, soc_init=soc), ftp, density, FTP_BAGS_S)
+    out["conventional"] = bag_figures(sim.trace(None, ftp, "conventional"), ftp, density, FTP_BAGS_S)
+    return out
+
+
 def headline(summary: dict) -> dict:
     """``reports/headline.json``: the answer in six figures (its keys are a contract; ``reports/answer.json``,
     :func:`answer`, holds the same figures under short keys as the declared DVC metric).
@@ -537,6 +551,7 @@ __all__ = [
     "RECOMMENDED_RESPONSES",
     "bag_figures",
     "failed_cycles",
+    "ftp_bags",
     "recommendation",
     "ANSWER_KEYS",
     "answer",

@@ -13,12 +13,11 @@ from hevlib.plots import save_figure
 from hevlib.plots.validation import catalyst_figure, improvement_figure, traces_figure
 from hevlib.report import build_summary
 from hevlib.validation import (
-    FTP_BAGS_S,
     answer,
-    bag_figures,
     cold_start_window_s,
     cycle_notes,
     failed_cycles,
+    ftp_bags,
     headline,
     load_cycles,
     prius_design,
@@ -115,21 +114,3 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
         f"{best if rec['design'] is not None else 'none'} -> wrote {TABLE}, {METRICS}, {HEADLINE}, {ANSWER}, "
         f"{SUMMARY}, {EXPLORER}"
     )
-
-
-def ftp_bags(sim, table, selected, design_id: str, ftp, prius_x) -> dict:
-    """Bag-by-bag FTP figures of the recommended design and both baselines, each from the SOC its
-    charge-balanced run started at (the conventional car has no battery: its own start)."""
-    import numpy as np
-
-    from hevlib.design import design_matrix
-
-    rows = table[table["cycle"] == ftp.name].set_index("vehicle")
-    density = sim.library.lib.engine_hybrid.fuel_density_g_per_l  # as every fc figure (hevlib.sim.simulator.responses)
-    x = design_matrix(selected[selected["design_id"].astype(str) == design_id])
-    out = {}
-    for name, X, kind in ((design_id, x, "hybrid"), ("prius", np.asarray(prius_x)[None, :], "prius")):
-        soc = float(rows.loc[name, "soc_init_charge_balanced"])
-        out[name] = bag_figures(sim.trace(X, ftp, kind, soc_init=soc), ftp, density, FTP_BAGS_S)
-    out["conventional"] = bag_figures(sim.trace(None, ftp, "conventional"), ftp, density, FTP_BAGS_S)
-    return out
