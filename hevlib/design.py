@@ -91,6 +91,38 @@ CHARGE_BALANCE_RESPONSES: tuple[str, ...] = (
     "soc_init_charge_balanced",
 )
 BOOL_RESPONSES: tuple[str, ...] = ("cycle_met", "stalled", "charge_balanced")
+#: Units of every design variable and response (the DOE schema's field metadata, report headers, the explorer).
+UNITS: dict[str, str] = {
+    "p_eng_kw": "kW",
+    "p_mot_kw": "kW",
+    "p_gen_kw": "kW",
+    "i0": "-",
+    "n_bat": "modules",
+    "n_r": "teeth",
+    "n_s": "teeth",
+    **OBJECTIVE_UNITS,
+    "fc_soc_corrected": "L/100 km",
+    "eta_drivetrain": "-",
+    "t_0_100_s": "s",
+    "cycle_met": "bool",
+    "speed_err_mean_kmh": "km/h",
+    "stalled": "bool",
+    "accessory_unmet_kwh": "kWh",
+    "hc_engine_out": "g/km",
+    "co_engine_out": "g/km",
+    "nox_engine_out": "g/km",
+    "t_cat_light_off_s": "s",
+    "n_engine_starts": "-",
+    "e_engine_start_j": "J",
+    "eta_engine_mean": "-",
+    "accel_dev_mean_abs": "%",
+    "source": "-",
+    "fc_charge_balanced": "L/100 km",
+    "charge_balance_runs": "-",
+    "charge_balance_residual": "-",
+    "charge_balanced": "bool",
+    "soc_init_charge_balanced": "-",
+}
 
 
 @dataclass(frozen=True)

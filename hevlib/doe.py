@@ -38,9 +38,9 @@ from hevlib.design import (
     DESIGN_VARS,
     INTEGER_MASK,
     INTEGER_VARS,
-    OBJECTIVE_UNITS,
     OBJECTIVES,
     RESPONSES,
+    UNITS,
     DesignSpace,
 )
 from hevlib.params import sizing_simulation_keys
@@ -49,33 +49,6 @@ from hevlib.tables import write_parquet_batches
 L27_FILE = "data/raw/paper/l27_assignment.csv"
 METHODS = ("l27", "lhs", "both")
 SOURCES = ("l27", "lhs", "heldout")
-
-UNITS: dict[str, str] = {
-    "p_eng_kw": "kW",
-    "p_mot_kw": "kW",
-    "p_gen_kw": "kW",
-    "i0": "-",
-    "n_bat": "modules",
-    "n_r": "teeth",
-    "n_s": "teeth",
-    **OBJECTIVE_UNITS,
-    "fc_soc_corrected": "L/100 km",
-    "eta_drivetrain": "-",
-    "t_0_100_s": "s",
-    "cycle_met": "bool",
-    "speed_err_mean_kmh": "km/h",
-    "stalled": "bool",
-    "accessory_unmet_kwh": "kWh",
-    "hc_engine_out": "g/km",
-    "co_engine_out": "g/km",
-    "nox_engine_out": "g/km",
-    "t_cat_light_off_s": "s",
-    "n_engine_starts": "-",
-    "e_engine_start_j": "J",
-    "eta_engine_mean": "-",
-    "accel_dev_mean_abs": "%",
-    "source": "-",
-}
 
 
 def _field(name: str, typ: pa.DataType) -> pa.Field:

@@ -39,7 +39,6 @@ import pyarrow as pa
 from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, SENSE
 from hevlib.indicators import Hypervolume, Normalisation, hypervolume
 from hevlib.params import OptimiseParams
-from hevlib.recommend import shortlist
 from hevlib.screen import SIM, ScreenRule, passing, screening_rules
 from hevlib.tables import Table, columns, lazy, matrix, n_rows
 
@@ -187,7 +186,7 @@ def apply_screening(
                 "fails_alone": None,
                 "removed_in_sequence": 0,
                 "remaining_after": int(alive.sum()),
-                "note": "not evaluated: the table has none of its columns",
+                "note": f"not evaluated: the table has no column {', '.join(rule.expr_columns())}",
             }
             continue
         ok = ok_all[rule.name].to_numpy().astype(bool)
@@ -430,19 +429,23 @@ def pick_random(n: int, k: int, seed: int) -> np.ndarray:
     return np.sort(rng.choice(n, size=min(k, n), replace=False))
 
 
-def pick_diverse(F_norm: np.ndarray, k: int, start: int = 0) -> np.ndarray:
-    """Farthest-point sampling: from ``start``, repeatedly add the row farthest from those picked.
+def pick_diverse(F_norm: np.ndarray, k: int, start: int | Sequence[int] = 0) -> np.ndarray:
+    """Farthest-point sampling: from ``start`` (one row, or seed rows taken first, in order, once each),
+    repeatedly add the row farthest from those picked.
 
     Deterministic (ties go to the lowest index); returns ``min(k, n)`` indices in the order picked.
     """
     F_norm = np.asarray(F_norm, dtype=float)
     n = len(F_norm)
     k = min(k, n)
-    if k == 0:
+    seeds = [start] if np.ndim(start) == 0 else list(start)
+    picked = list(dict.fromkeys(int(s) for s in seeds))[:k]
+    if not picked:
         return np.zeros(0, dtype=np.int64)
-    picked = [int(start)]
-    dmin = np.linalg.norm(F_norm - F_norm[start], axis=1)
-    for _ in range(k - 1):
+    dmin = np.linalg.norm(F_norm - F_norm[picked[0]], axis=1)
+    for s in picked[1:]:
+        dmin = np.minimum(dmin, np.linalg.norm(F_norm - F_norm[s], axis=1))
+    while len(picked) < k:
         dmin[picked] = -np.inf
         nxt = int(np.argmax(dmin))
         picked.append(nxt)
@@ -527,6 +530,8 @@ def select_designs(
     idx_kept = idx_kept[np.argsort(rank[idx_kept], kind="stable")]  # best first
     roles: dict[str, int] = {}
     if screen.pick == "recommend":
+        from hevlib.recommend import shortlist  # it builds on this module's normalise, dominance and sampling
+
         kept_rows = merged[idx_kept].select([f"{SIM}{k}" for k in RESPONSES if f"{SIM}{k}" in merged.columns])
         local, roles = shortlist(kept_rows.to_pandas(), screen.n_pick)
     elif screen.pick == "random":

@@ -31,7 +31,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from hevlib.design import DESIGN_VARS, OBJECTIVES, SENSE
+from hevlib.design import DESIGN_VARS, OBJECTIVES
+from hevlib.pareto import nondominated_mask, normalise, pick_diverse, to_minimisation
 
 #: Objective groups for "best of each group" (sizing-cycle objectives; SPEC 5).
 GROUPS: dict[str, tuple[str, ...]] = {
@@ -59,33 +60,14 @@ ACTIVE_MARGIN = 0.05
 
 
 # ------------------------------------------------------------------------------------------ choice
-def normalised(F: np.ndarray) -> np.ndarray:
-    """Columns of ``F`` (minimisation form) min-max normalised over its rows; a constant column maps to 0."""
-    F = np.asarray(F, dtype=float)
-    if len(F) == 0:
-        return F.copy()
-    lo, hi = F.min(axis=0), F.max(axis=0)
-    span = np.where(hi > lo, hi - lo, 1.0)
-    return np.where(hi > lo, (F - lo) / span, 0.0)
-
-
-def _nondominated(F: np.ndarray) -> np.ndarray:
-    n = len(F)
-    keep = np.ones(n, dtype=bool)
-    for i in range(n):
-        dominated = np.all(F <= F[i], axis=1) & np.any(F < F[i], axis=1)
-        keep[i] = not dominated.any()
-    return keep
-
-
 def knee_index(F: np.ndarray) -> int:
     """Row of ``F`` ((n, k), minimisation form, finite) at the knee (module docstring); ties go to the
     lowest row."""
     F = np.asarray(F, dtype=float)
     if len(F) == 0:
         raise ValueError("knee: no candidates")
-    N = normalised(F)
-    nd = _nondominated(N)
+    N = normalise(F)
+    nd = nondominated_mask(N)
     k = N.shape[1]
     extremes = N[[int(np.argmin(N[:, j] + 1e-12 * N.sum(axis=1))) for j in range(k)]]
     a = None
@@ -103,29 +85,12 @@ def knee_index(F: np.ndarray) -> int:
 
 def best_of_group(F_group: np.ndarray) -> int:
     """Row with the lowest mean of the group's min-max normalised criteria (minimisation form)."""
-    return int(np.argmin(normalised(F_group).mean(axis=1)))
-
-
-def farthest_fill(F_norm: np.ndarray, seeds: Sequence[int], k: int) -> np.ndarray:
-    """``seeds`` (distinct, in order), then farthest-point sampling over ``F_norm`` until ``min(k, n)``
-    rows; ties go to the lowest row."""
-    n = len(F_norm)
-    chosen = list(dict.fromkeys(int(s) for s in seeds))[: min(k, n)]
-    if not chosen or len(chosen) >= min(k, n):
-        return np.array(chosen, dtype=np.int64)
-    dmin = np.min(np.linalg.norm(F_norm[:, None, :] - F_norm[chosen][None, :, :], axis=2), axis=1)
-    while len(chosen) < min(k, n):
-        dmin[chosen] = -np.inf
-        nxt = int(np.argmax(dmin))
-        chosen.append(nxt)
-        dmin = np.minimum(dmin, np.linalg.norm(F_norm - F_norm[nxt], axis=1))
-    return np.array(chosen, dtype=np.int64)
+    return int(np.argmin(normalise(F_group).mean(axis=1)))
 
 
 def minimisation(table: pd.DataFrame, names: Sequence[str], prefix: str = "") -> np.ndarray:
-    """(n, len(names)) of ``prefix + name`` columns in minimisation form (maximised objectives negated)."""
-    sense = np.array([SENSE[OBJECTIVES.index(n)] if n in OBJECTIVES else 1.0 for n in names])
-    return table[[f"{prefix}{n}" for n in names]].to_numpy(dtype=float) * sense
+    """(n, len(names)) of ``prefix + name`` columns in minimisation form (:func:`hevlib.pareto.to_minimisation`)."""
+    return to_minimisation(table[[f"{prefix}{n}" for n in names]].to_numpy(dtype=float), names)
 
 
 def shortlist(kept: pd.DataFrame, k: int, prefix: str = "sim_") -> tuple[np.ndarray, dict[str, int]]:
@@ -137,8 +102,8 @@ def shortlist(kept: pd.DataFrame, k: int, prefix: str = "sim_") -> tuple[np.ndar
     roles = {"knee": knee_index(minimisation(kept, knee_by if len(knee_by) > 1 else OBJECTIVES, prefix))}
     for group, names in GROUPS.items():
         roles[f"best_{group}"] = best_of_group(minimisation(kept, names, prefix))
-    F = normalised(minimisation(kept, OBJECTIVES, prefix))
-    return farthest_fill(F, list(roles.values()), k), roles
+    F = normalise(minimisation(kept, OBJECTIVES, prefix))
+    return pick_diverse(F, k, start=list(roles.values())), roles
 
 
 # ------------------------------------------------------------------------------------------ reasons
@@ -256,10 +221,8 @@ __all__ = [
     "active_bounds",
     "best_of_group",
     "bounds_touched",
-    "farthest_fill",
     "knee_index",
     "minimisation",
-    "normalised",
     "reasons",
     "recommend",
     "screen_margins",

@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from hevlib.design import DESIGN_VARS, OBJECTIVE_UNITS
+from hevlib.design import DESIGN_VARS, UNITS
 from hevlib.validation import ALL, BASELINE_ALGO, IMPROVEMENT_RESPONSES, SOC_POINTS
 
 #: The study's headline against the conventional car on FTP (SPEC section 1).
@@ -20,13 +20,12 @@ STUDY_HEADLINE = {
     "m_veh": "about 4 % lower",
     "fc": "36-46 % lower",
 }
-_UNITS = {
-    **OBJECTIVE_UNITS,
-    "fc_soc_corrected": "L/100 km",
-    "fc_charge_balanced": "L/100 km",
-    "eta_drivetrain": "-",
-    "t_0_100_s": "s",
-}
+
+
+def _labelled(name: str) -> str:
+    """A column header: the name with its unit (:data:`hevlib.design.UNITS`), bare for a share or a flag."""
+    unit = UNITS.get(name, "-")
+    return name if unit in ("-", "bool") else f"{name} [{unit}]"
 
 
 def _fmt(value, digits: int = 3) -> str:
@@ -213,7 +212,7 @@ def _designs_table(table: pd.DataFrame, selected: pd.DataFrame, cycle: str, fail
         "rank",
         "role",
         *DESIGN_VARS,
-        *[f"{c} [{_UNITS[c]}]" if _UNITS.get(c, "-") != "-" else c for c in cols],
+        *[_labelled(c) for c in cols],
         "fails",
     ]
     body = [
@@ -229,11 +228,6 @@ def _designs_table(table: pd.DataFrame, selected: pd.DataFrame, cycle: str, fail
         for v, r in rows.iterrows()
     ]
     return markdown_table(header, body)
-
-
-def _rec_units(r: str) -> str:
-    unit = _UNITS.get(r, {"n_engine_starts": "-", "t_cat_light_off_s": "s", "cycle_met": "-"}.get(r, "-"))
-    return f"{r} [{unit}]" if unit != "-" else r
 
 
 def _design_line(d: Mapping) -> str:
@@ -295,7 +289,7 @@ def _build_this(validation: Mapping, pareto: Mapping) -> list[str]:
         for r in (x for x in fig["design"] if x != "cycle_met"):
             rows.append(
                 [
-                    _rec_units(r),
+                    _labelled(r),
                     fig["design"][r],
                     fig["prius"][r],
                     fig["conventional"][r],

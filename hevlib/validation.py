@@ -327,7 +327,7 @@ def summarise(table: pd.DataFrame, algos: Sequence[str], cycles: Sequence[str], 
 
 
 # ------------------------------------------------------------------------------------- recommendation
-#: Responses of the "Build this" tables, in their row order (units in hevlib.doe.UNITS).
+#: Responses of the "Build this" tables, in their row order (units in hevlib.design.UNITS).
 RECOMMENDED_RESPONSES: tuple[str, ...] = (
     "fc_charge_balanced",
     "fc",
@@ -444,30 +444,37 @@ def recommendation(table: pd.DataFrame, selected: pd.DataFrame, cycles: Sequence
     }
 
 
-def bag_figures(trace: pd.DataFrame, cycle: Cycle, density_g_per_l: float, bags: Sequence[tuple[float, float]]) -> list:
+#: Tailpipe gases of the bag table with their trace columns.
+GAS_TAILPIPE: tuple[tuple[str, str], ...] = (
+    ("hc", "hc_tailpipe_g_s"),
+    ("co", "co_tailpipe_g_s"),
+    ("nox", "nox_tailpipe_g_s"),
+)
+
+
+def bag_figures(trace: pd.DataFrame, density_g_per_l: float, bags: Sequence[tuple[float, float]]) -> list:
     """Fuel (L/100 km), tailpipe HC/CO/NOx (g/km) and SOC change of one vehicle's trace over each bag
-    ``(start_s, end_s)`` of ``cycle`` (time since the cycle's start)."""
+    ``(start_s, end_s]`` (seconds since the cycle's start)."""
     t = trace["time_s"].to_numpy(dtype=float)
     dt = np.diff(t, prepend=t[0])
+    soc = trace["soc"].to_numpy(dtype=float)
+    metres = trace["v_mps"].to_numpy(dtype=float) * dt
+    grams = {k: trace[c].to_numpy(dtype=float) * dt for k, c in (("fuel", "fuel_g_s"), *GAS_TAILPIPE)}
     out = []
     for k, (a, b) in enumerate(bags, start=1):
-        m = (t > a) & (t <= b)
-        km = float(np.sum(trace["v_mps"].to_numpy(dtype=float)[m] * dt[m])) / 1000.0
-        fuel_l = float(np.sum(trace["fuel_g_s"].to_numpy(dtype=float)[m] * dt[m])) / density_g_per_l
-        soc = trace["soc"].to_numpy(dtype=float)
-        i0 = max(int(np.flatnonzero(m)[0]) - 1, 0) if m.any() else 0
-        i1 = int(np.flatnonzero(m)[-1]) if m.any() else 0
+        steps = np.flatnonzero((t > a) & (t <= b))
+        km = float(np.sum(metres[steps])) / 1000.0
+        fuel_l = float(np.sum(grams["fuel"][steps])) / density_g_per_l
         row = {
             "bag": k,
             "start_s": a,
             "end_s": b,
             "distance_km": km,
             "fc": 100.0 * fuel_l / km if km > 0 else None,
-            "delta_soc": float(soc[i1] - soc[i0]),
+            "delta_soc": float(soc[steps[-1]] - soc[max(steps[0] - 1, 0)]) if steps.size else 0.0,
         }
-        for gas in ("hc", "co", "nox"):
-            grams = float(np.sum(trace[f"{gas}_tailpipe_g_s"].to_numpy(dtype=float)[m] * dt[m]))
-            row[gas] = grams / km if km > 0 else None
+        for gas, _ in GAS_TAILPIPE:
+            row[gas] = float(np.sum(grams[gas][steps])) / km if km > 0 else None
         out.append(row)
     return out
 
@@ -486,8 +493,8 @@ def ftp_bags(sim, table: pd.DataFrame, selected: pd.DataFrame, design_id: str, f
     out = {}
     for name, X, kind in ((design_id, x, "hybrid"), ("prius", np.asarray(prius_x, dtype=float)[None, :], "prius")):
         soc = float(rows.loc[name, "soc_init_charge_balanced"])
-        out[name] = bag_figures(sim.trace(X, ftp, kind, soc_init=soc), ftp, density, FTP_BAGS_S)
-    out["conventional"] = bag_figures(sim.trace(None, ftp, "conventional"), ftp, density, FTP_BAGS_S)
+        out[name] = bag_figures(sim.trace(X, ftp, kind, soc_init=soc), density, FTP_BAGS_S)
+    out["conventional"] = bag_figures(sim.trace(None, ftp, "conventional"), density, FTP_BAGS_S)
     return out
 
 

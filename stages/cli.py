@@ -54,13 +54,9 @@ def _scan(root: Path) -> dict[str, tuple[str, str, bool]]:
     return out
 
 
-def _index() -> dict[str, tuple[str, str]]:
-    return command_index(STAGES_ROOT)
-
-
 def register_all() -> None:
     """Import every stage module, registering all commands on ``app``."""
-    for module, _ in sorted(set(_index().values())):
+    for module, _ in sorted(set(command_index(STAGES_ROOT).values())):
         importlib.import_module(module)
 
 

@@ -10,13 +10,12 @@ from test_pareto import synthetic_front
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES
 from hevlib.params import DesignSpaceParams, ScreenParams
-from hevlib.pareto import select_designs
+from hevlib.pareto import pick_diverse, select_designs
 from hevlib.recommend import (
     FLAG_SHARE,
     active_bounds,
     best_of_group,
     bounds_touched,
-    farthest_fill,
     knee_index,
     recommend,
     screen_margins,
@@ -44,14 +43,15 @@ def test_the_knee_falls_back_to_the_equal_weight_plane_when_the_extremes_coincid
         knee_index(np.zeros((0, 2)))
 
 
-def test_best_of_group_and_farthest_fill():
+def test_best_of_group_and_farthest_point_sampling_from_seeds():
     G = np.array([[1.0, 10.0], [0.0, 30.0], [0.5, 15.0]])
     assert best_of_group(G) == 2  # normalised means: 0.5, 0.5, 0.375
     F = np.array([[0.0, 0.0], [1.0, 1.0], [0.1, 0.0], [0.0, 1.0], [0.9, 1.0]])
-    picked = farthest_fill(F, [2, 2, 0], 4)
+    picked = pick_diverse(F, 4, start=[2, 2, 0])
     assert list(picked[:2]) == [2, 0] and len(set(picked)) == 4  # seeds first, once each
     assert 1 in picked and 3 in picked  # then the farthest corners
-    assert list(farthest_fill(F, [4, 1], 1)) == [4]
+    assert list(pick_diverse(F, 1, start=[4, 1])) == [4]
+    assert list(pick_diverse(F, 3, start=[1])) == list(pick_diverse(F, 3, start=1))  # one seed: the classic call
 
 
 def _space():

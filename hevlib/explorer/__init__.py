@@ -19,12 +19,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from hevlib.design import DESIGN_VARS, OBJECTIVE_UNITS, OBJECTIVES, SENSE
+from hevlib.design import DESIGN_VARS, OBJECTIVES, SENSE, UNITS
 from hevlib.pareto import SIM, algo_names
 
 _HERE = resources.files(__name__)
-#: Units of the design variables (their names carry them).
-VAR_UNITS = {"p_eng_kw": "kW", "p_mot_kw": "kW", "p_gen_kw": "kW", "i0": "-", "n_bat": "-", "n_r": "-", "n_s": "-"}
 
 
 def plotly_bundle() -> str:
@@ -42,9 +40,9 @@ def explorer_data(
 ) -> dict:
     """The page's data: axes (variables, then objectives, with units and sense), one row per merged design
     (its sources, kept/picked/recommended flags and the values), and both baselines on the sizing cycle."""
-    axes = [{"name": v, "unit": VAR_UNITS[v], "kind": "variable", "sense": None} for v in DESIGN_VARS]
+    axes = [{"name": v, "unit": UNITS[v], "kind": "variable", "sense": None} for v in DESIGN_VARS]
     axes += [
-        {"name": k, "unit": OBJECTIVE_UNITS[k], "kind": "objective", "sense": "max" if s < 0 else "min"}
+        {"name": k, "unit": UNITS[k], "kind": "objective", "sense": "max" if s < 0 else "min"}
         for k, s in zip(OBJECTIVES, SENSE, strict=True)
     ]
     cols = [*DESIGN_VARS, *[f"{SIM}{k}" for k in OBJECTIVES]]
@@ -103,4 +101,4 @@ def write_explorer(path: str | Path, data: dict) -> None:
     write_text(Path(path), explorer_html(data))
 
 
-__all__ = ["VAR_UNITS", "explorer_data", "explorer_html", "plotly_bundle", "write_explorer"]
+__all__ = ["explorer_data", "explorer_html", "plotly_bundle", "write_explorer"]
