@@ -29,7 +29,7 @@ def _run(n, n_steps, X, t_init):
     out = np.zeros((n, L.N_O))
     for i in prange(n):
         o = out[i]
-        k, temp, q = th_.start(40.0 + i % 30, X, t_init, 1.0, o)
+        k, temp, q = th_.start(40.0 + i % 30, X, t_init, 1.0, o, np.empty(th_.N_SCRATCH))
         for t in range(n_steps):
             on = 1.0 if t % 7 < 4 else 0.0
             th_.thermal_step(

@@ -46,36 +46,38 @@ def power_scale(p_target_kw, p_base_kw: float) -> np.ndarray:
     return kernel_power_scale(p.reshape(-1), float(p_base_kw)).reshape(p.shape)
 
 
+#: The fields of each component that scale with its peak power (torque scaling at the fixed speed axis; a
+#: machine's efficiency is read on normalised torque, so its map stays).
+ENGINE_SCALED_FIELDS = (
+    "torque_nm",
+    "max_torque_nm",
+    "fuel_g_s",
+    "hc_g_s",
+    "co_g_s",
+    "nox_g_s",
+    "peak_power_kw",
+    "engine_mass_kg",
+    "inertia_kg_m2",
+)
+MACHINE_SCALED_FIELDS = ("torque_nm", "max_torque_nm", "peak_power_kw", "mass_kg", "inertia_kg_m2")
+
+
+def _scaled_to(component, p_kw: float, fields: tuple[str, ...]):
+    """``component`` (an engine or machine map) scaled to ``p_kw`` peak power: each of ``fields`` x s."""
+    s = float(power_scale(p_kw, component.peak_power_kw))
+    return dataclasses.replace(
+        component, name=f"{component.name}@{p_kw:g}kW", **{f: scaled(getattr(component, f), s) for f in fields}
+    )
+
+
 def scale_engine(engine: EngineMap, p_kw: float) -> EngineMap:
     """The engine scaled to ``p_kw`` peak power (torque scaling at the fixed speed axis)."""
-    s = float(power_scale(p_kw, engine.peak_power_kw))
-    return dataclasses.replace(
-        engine,
-        name=f"{engine.name}@{p_kw:g}kW",
-        torque_nm=scaled(engine.torque_nm, s),
-        max_torque_nm=scaled(engine.max_torque_nm, s),
-        fuel_g_s=scaled(engine.fuel_g_s, s),
-        hc_g_s=scaled(engine.hc_g_s, s),
-        co_g_s=scaled(engine.co_g_s, s),
-        nox_g_s=scaled(engine.nox_g_s, s),
-        peak_power_kw=scaled(engine.peak_power_kw, s),
-        engine_mass_kg=scaled(engine.engine_mass_kg, s),
-        inertia_kg_m2=scaled(engine.inertia_kg_m2, s),
-    )
+    return _scaled_to(engine, p_kw, ENGINE_SCALED_FIELDS)
 
 
 def scale_machine(machine: MachineMap, p_kw: float) -> MachineMap:
     """The machine scaled to ``p_kw`` peak power: torques x s, efficiency unchanged on normalised torque."""
-    s = float(power_scale(p_kw, machine.peak_power_kw))
-    return dataclasses.replace(
-        machine,
-        name=f"{machine.name}@{p_kw:g}kW",
-        torque_nm=scaled(machine.torque_nm, s),
-        max_torque_nm=scaled(machine.max_torque_nm, s),
-        peak_power_kw=scaled(machine.peak_power_kw, s),
-        mass_kg=scaled(machine.mass_kg, s),
-        inertia_kg_m2=scaled(machine.inertia_kg_m2, s),
-    )
+    return _scaled_to(machine, p_kw, MACHINE_SCALED_FIELDS)
 
 
 def engine_system_mass_kg(engine: EngineMap, p_kw, exhaust_kg_per_kw: float) -> np.ndarray:

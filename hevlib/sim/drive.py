@@ -433,9 +433,9 @@ def _limited_conv(v0, v_req, v_cap, f_cmd, ratio, sn, cs, dt, st, d, ch, E):
 
 
 @njit(cache=True)
-def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, record: bool):
+def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
     # everything below reads the caller's arrays through views that are not reference-counted (borrow.py)
-    veh, cyc, t_init, o, tr = borrowed((veh, cyc, t_init, o, tr))
+    veh, cyc, t_init, o, tr, scratch = borrowed((veh, cyc, t_init, o, tr, scratch))
     row, c, th, pc, E, M, G, B, X = veh.rows[i], veh.c, veh.th, veh.pc, veh.E, veh.M, veh.G, veh.B, veh.X
     v_ref, grade, sin_g, cos_g, key_on = cyc
     d = split_design(row, c)
@@ -452,8 +452,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
     env = NO_ENVELOPE  # the last force-limited step's point on the full-power force envelope (_limited_split)
     soc_lo, soc_hi = soc, soc
     n = v_ref.shape[0]
-    k_own, temp_own, q_own = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
-    k_th, temp, q_th = borrowed((k_own, temp_own, q_own))
+    k_th, temp, q_th = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o, scratch)
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]
@@ -651,8 +650,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
     o[L.O_SOC_MIN_SEEN] = soc_lo
     o[L.O_SOC_MAX_SEEN] = soc_hi
     o[L.O_E_KIN_END] = 0.5 * ch.m_eff * v * v
-    th_.finish(temp_own, k_own, (n - 1) * dt, o)
-    th_.release(q_own)  # the scratch's owner lives to here
+    th_.finish(temp, k_th, (n - 1) * dt, o)
     if record:
         tr[0, L.T_V_REF] = v_ref[0]
         tr[0, L.T_SOC] = row[R_SOC0]
@@ -666,15 +664,16 @@ def drive_hybrid(veh: KernelVehicle, cyc: KernelCycle, t_init, out, traces, rec_
     """Drive designs ``start .. stop - 1`` of ``veh`` (its rows) over ``cyc`` from the thermal start ``t_init``;
     fill their rows of ``out`` (``O_*`` columns) and, where ``rec_index`` is >= 0, that trace of ``traces``.
     Releases the GIL: :func:`hevlib.sim.simulator.in_parallel` runs chunks of a batch on threads."""
+    scratch = np.empty(th_.N_SCRATCH)  # the thermal model's working row, design after design
     for i in range(start, stop):
         j = rec_index[i]
-        _hybrid_one(veh, i, cyc, t_init, out[i], traces[max(j, 0)], j >= 0)
+        _hybrid_one(veh, i, cyc, t_init, out[i], traces[max(j, 0)], j >= 0, scratch)
 
 
 @njit(cache=True)
-def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, record: bool):
+def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
     # the caller's arrays through views that are not reference-counted (borrow.py)
-    veh, cyc, t_init, o, tr = borrowed((veh, cyc, t_init, o, tr))
+    veh, cyc, t_init, o, tr, scratch = borrowed((veh, cyc, t_init, o, tr, scratch))
     row, c, ratios, upshift_kmh, d, E, X = veh.rows[i], veh.c, veh.ratios, veh.upshift_kmh, veh.cd, veh.E, veh.X
     v_ref, grade, sin_g, cos_g, key_on = cyc
     m = row[R_MASS]
@@ -684,8 +683,7 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
     v_lim = d.w_e_max * d.r / ratios[-1]
     v = 0.0
     n = v_ref.shape[0]
-    k_own, temp_own, q_own = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o)
-    k_th, temp, q_th = borrowed((k_own, temp_own, q_own))
+    k_th, temp, q_th = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o, scratch)
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]
@@ -770,8 +768,7 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
     o[L.O_SOC_MIN_SEEN] = row[R_SOC0]
     o[L.O_SOC_MAX_SEEN] = row[R_SOC0]
     o[L.O_E_KIN_END] = 0.5 * m_prev * v * v
-    th_.finish(temp_own, k_own, (n - 1) * dt, o)
-    th_.release(q_own)
+    th_.finish(temp, k_th, (n - 1) * dt, o)
     if record:
         tr[0, L.T_V_REF] = v_ref[0]
         tr[0, L.T_GRADE] = grade[0]
@@ -782,6 +779,7 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
 @njit(cache=True, nogil=True)
 def drive_conventional(veh: KernelVehicle, cyc: KernelCycle, t_init, out, traces, rec_index, start: int, stop: int):
     """As :func:`drive_hybrid` for the conventional car."""
+    scratch = np.empty(th_.N_SCRATCH)  # the thermal model's working row, design after design
     for i in range(start, stop):
         j = rec_index[i]
-        _conventional_one(veh, i, cyc, t_init, out[i], traces[max(j, 0)], j >= 0)
+        _conventional_one(veh, i, cyc, t_init, out[i], traces[max(j, 0)], j >= 0, scratch)

@@ -169,6 +169,7 @@ def _engine_power_for_battery(
     g_a: float,
     p_b: float,
     g_b: float,
+    st_b,
     sign: float,
     target: float,
     lim: SplitLimits,
@@ -177,9 +178,11 @@ def _engine_power_for_battery(
     E: EngineArrays,
     M: MachineArrays,
     G: MachineArrays,
-) -> float:
+):
     """Engine power at which the battery power meets a limit: root of ``g(p) = sign (P_batt(p) - target)``
-    between ``p_a`` (``g_a > 0``, violating) and ``p_b`` (``g_b <= 0``, feasible); returns a feasible end.
+    between ``p_a`` (``g_a > 0``, violating) and ``p_b`` (``g_b <= 0``, feasible; ``st_b`` its
+    :func:`_engine_on` point); returns the operating point of a feasible end (the caller's own ``st_b`` if no
+    step improves on it).
 
     Battery power falls monotonically and almost linearly as engine power rises (the gear set hands
     the extra to the ring and the generator), so a few Illinois regula-falsi steps suffice (1 W).
@@ -199,11 +202,11 @@ def _engine_power_for_battery(
                 g_b *= 0.5
             side = -1
         else:
-            p_b, g_b = p, g
+            p_b, g_b, st_b = p, g, st
             if side == 1:
                 g_a *= 0.5
             side = 1
-    return p_b
+    return st_b
 
 
 @njit(cache=True)
@@ -282,14 +285,11 @@ def _dispatch(lim, f_req, engine_on, p_e_target, p_dis, p_chg, regen_frac, d, E,
             if p_hi > p_e:
                 st = _engine_on(p_hi, lim, t_r_drive, d, E, M, G)
                 h_hi = st[6] + st[7] + p_acc
-                p_new = (
-                    p_hi
-                    if h_hi > p_dis
-                    else _engine_power_for_battery(
-                        p_e, p_batt - p_dis, p_hi, h_hi - p_dis, 1.0, p_dis, lim, t_r_drive, d, E, M, G
+                if h_hi <= p_dis:
+                    st = _engine_power_for_battery(
+                        p_e, p_batt - p_dis, p_hi, h_hi - p_dis, st, 1.0, p_dis, lim, t_r_drive, d, E, M, G
                     )
-                )
-                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_on(p_new, lim, t_r_drive, d, E, M, G)
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = st
                 p_batt = p_m_e + p_g_e + p_acc
             if p_batt > p_dis and t_m > 0.0:
                 # ... then less motor torque
@@ -317,10 +317,9 @@ def _dispatch(lim, f_req, engine_on, p_e_target, p_dis, p_chg, regen_frac, d, E,
             if h0 < -p_chg:
                 w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = st0
             else:
-                p_new = _engine_power_for_battery(
-                    p_e, -(p_batt + p_chg), 0.0, -(h0 + p_chg), -1.0, -p_chg, lim, t_r_drive, d, E, M, G
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_power_for_battery(
+                    p_e, -(p_batt + p_chg), 0.0, -(h0 + p_chg), st0, -1.0, -p_chg, lim, t_r_drive, d, E, M, G
                 )
-                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_on(p_new, lim, t_r_drive, d, E, M, G)
             p_batt = p_m_e + p_g_e + p_acc
             if p_batt < -p_chg and t_m < 0.0:
                 # ... then less regenerative torque (friction brakes take the rest)

@@ -153,13 +153,22 @@ def cold_factors(t_block_c: float, t: ThermalConfig) -> tuple[float, float, floa
     return 1.0 + 0.1 * lam**0.65, 1.0 + 8.05 * lam**9.46, 1.0 + 2.13 * lam**4.26, 1.0 + 0.51 * lam**1.37
 
 
+#: Length of the scratch row :func:`start` lays out: the per-design constants, the node temperatures and the
+#: net heat of each node.
+N_SCRATCH = N_K + 2 * N_NODES
+
+
 @njit(cache=True)
-def start(p_eng_kw: float, t: ThermalConfig, t_init_c: np.ndarray, dt: float, o: np.ndarray):
-    """Per-design constants, the nodes' start temperatures and a scratch array for :func:`thermal_step`;
-    books the stored heat and the light-off at time 0."""
-    k = design_constants(p_eng_kw, t, dt, t.fuel_max_g_s * p_eng_kw / t.p_base_kw * (1.0 + t.afr))
-    temp = t_init_c.copy()
-    q = np.zeros(N_NODES)  # scratch: net heat into each node, W (reused every step)
+def start(p_eng_kw: float, t: ThermalConfig, t_init_c: np.ndarray, dt: float, o: np.ndarray, scratch: np.ndarray):
+    """Per-design constants, the nodes' start temperatures and scratch space for :func:`thermal_step`, as views
+    ``(k, temp, q)`` of the caller's ``scratch`` row (:data:`N_SCRATCH` long, reused design after design: the
+    caller owns it for the whole drive); books the stored heat and the light-off at time 0."""
+    k = scratch[:N_K]
+    temp = scratch[N_K : N_K + N_NODES]
+    q = scratch[N_K + N_NODES : N_SCRATCH]  # net heat into each node, W (reused every step)
+    fill_design_constants(k, p_eng_kw, t, dt, t.fuel_max_g_s * p_eng_kw / t.p_base_kw * (1.0 + t.afr))
+    temp[:] = t_init_c
+    q[:] = 0.0
     o[L.O_U_THERMAL_START_J] = stored_heat(temp, k)
     o[L.O_T_LIGHT_OFF_S] = -1.0
     o[L.O_T_CAT_MAX_C] = temp[N_MON]
@@ -177,19 +186,18 @@ def finish(temp: np.ndarray, k: np.ndarray, duration_s: float, o: np.ndarray) ->
         o[L.O_T_LIGHT_OFF_S] = duration_s
 
 
-@njit(cache=True, inline="always")
-def release(scratch: np.ndarray) -> None:
-    """Mark the end of a borrowed scratch array's use: the kernels read :func:`start`'s arrays through views
-    that do not keep them alive (:mod:`hevlib.sim.powertrain.borrow`), so the owner is used once more here,
-    after the last step, and freed after this call."""
-    scratch[0] = 0.0
-
-
 @njit(cache=True)
 def design_constants(p_eng_kw: float, t: ThermalConfig, dt: float, w_flow_max: float) -> np.ndarray:
     """Node heat capacities (J/K), areas (m^2) and sub-steps of the design whose engine makes ``p_eng_kw``;
     ``w_flow_max``: the most exhaust flow it can make, g/s (bounds the gas-side conductances)."""
     k = np.empty(N_K)
+    fill_design_constants(k, p_eng_kw, t, dt, w_flow_max)
+    return k
+
+
+@njit(cache=True)
+def fill_design_constants(k: np.ndarray, p_eng_kw: float, t: ThermalConfig, dt: float, w_flow_max: float) -> None:
+    """:func:`design_constants` written into ``k`` (``N_K`` long)."""
     s = p_eng_kw / t.p_base_kw
     k[N_CYL] = 0.2 * t.m_base_kg * s * t.cp_eng
     k[N_BLOCK] = 0.8 * t.m_base_kg * s * t.cp_eng
@@ -211,7 +219,6 @@ def design_constants(p_eng_kw: float, t: ThermalConfig, dt: float, w_flow_max: f
     k[K_A_SHIELD] = a_mon * 1.4
     k[K_A_MAN] = t.a_man_m2_per_kw * p_eng_kw
     k[K_N_SUB] = substeps(k, t, dt, w_flow_max)
-    return k
 
 
 @njit(cache=True)
