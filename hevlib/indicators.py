@@ -305,14 +305,16 @@ def igd_plus(F: np.ndarray, reference_front: np.ndarray) -> float:
 
 
 @njit(parallel=True, cache=True)
-def _dominated_samples(F, Z, start, out) -> np.ndarray:  # pragma: no cover
-    """How many samples (rows of ``Z``) each row of ``F`` weakly dominates; with ``out`` non-empty, also
-    their indices, row ``i``'s from ``out[start[i]]`` on (the counts of a first pass give ``start``)."""
+def _dominated_samples(F, Z, first, start, out) -> np.ndarray:  # pragma: no cover
+    """How many samples (rows of ``Z``) each row of ``F`` weakly dominates, looking at row ``i``'s samples from
+    ``first[i]`` on (``Z`` sorted on one objective: the samples before ``first[i]`` are below row ``i`` in it);
+    with ``out`` non-empty, also their indices, row ``i``'s from ``out[start[i]]`` on (the counts of a first
+    pass give ``start``)."""
     counts = np.zeros(F.shape[0], dtype=np.int64)
     write = out.size > 0
     for i in prange(F.shape[0]):
         c = 0
-        for s in range(Z.shape[0]):
+        for s in range(first[i], Z.shape[0]):
             ok = True
             for j in range(F.shape[1]):
                 if F[i, j] > Z[s, j]:
@@ -324,6 +326,15 @@ def _dominated_samples(F, Z, start, out) -> np.ndarray:  # pragma: no cover
                 c += 1
         counts[i] = c
     return counts
+
+
+def _sorted_samples(F: np.ndarray, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``Z``'s rows sorted on the objective that rules out the most (row, sample) pairs of ``F`` at once (a
+    sample below a row in any objective is not dominated by it), and per row of ``F`` the first sorted sample
+    not below it there: :func:`_dominated_samples` scans only from there, and counts the same samples."""
+    firsts = np.stack([np.searchsorted(np.sort(Z[:, j]), F[:, j], side="left") for j in range(F.shape[1])])
+    c = int(np.argmax(firsts.sum(axis=1)))
+    return np.ascontiguousarray(Z[np.argsort(Z[:, c], kind="stable")]), firsts[c].astype(np.int64)
 
 
 @njit(cache=True)
@@ -385,11 +396,12 @@ def hv_greedy_subset(F: np.ndarray, k: int, reference, *, n_samples: int, seed: 
         Fu = np.ascontiguousarray(F[usable])
         lo = Fu.min(axis=0)
         Z = lo + np.random.default_rng(seed).random((int(n_samples), F.shape[1])) * (r - lo)
-        counts = _dominated_samples(Fu, Z, np.zeros(len(Fu) + 1, dtype=np.int64), np.empty(0, dtype=np.int64))
+        Z, first = _sorted_samples(Fu, Z)  # the greedy needs which samples a row covers, not their order
+        counts = _dominated_samples(Fu, Z, first, np.zeros(len(Fu) + 1, dtype=np.int64), np.empty(0, dtype=np.int64))
         start = np.zeros(len(Fu) + 1, dtype=np.int64)
         start[1:] = np.cumsum(counts)
         items = np.empty(int(start[-1]), dtype=np.int64)
-        _dominated_samples(Fu, Z, start, items)
+        _dominated_samples(Fu, Z, first, start, items)
         chosen = usable[_greedy_cover(start, items, int(n_samples), int(k))]
         alone[usable] = counts
     if len(chosen) < k:

@@ -71,6 +71,33 @@ def test_greedy_hypervolume_subset_keeps_more_than_farthest_point_or_random():
     assert set(hv_greedy_subset(outside, 5, 1.1, n_samples=10_000, seed=0)) == set(range(5))
 
 
+def test_greedy_subset_scans_sorted_samples_and_chooses_as_a_full_scan():
+    """The greedy's samples sorted on one objective, each row scanning only those not below it there: every
+    row counts the samples it truly dominates, and the greedy chooses what a scan of every sample chooses."""
+    from hevlib.indicators import _dominated_samples, _greedy_cover, _sorted_samples
+
+    rng = np.random.default_rng(3)
+    F = rng.random((300, 5))
+    F = F / np.linalg.norm(F, axis=1, keepdims=True)
+    Z = rng.random((5000, 5)) * 1.1
+
+    def cover(Z, first, k=20):
+        counts = _dominated_samples(F, Z, first, np.zeros(len(F) + 1, dtype=np.int64), np.empty(0, dtype=np.int64))
+        start = np.zeros(len(F) + 1, dtype=np.int64)
+        start[1:] = np.cumsum(counts)
+        items = np.empty(int(start[-1]), dtype=np.int64)
+        _dominated_samples(F, Z, first, start, items)
+        return counts, _greedy_cover(start, items, len(Z), k)
+
+    counts, chosen = cover(Z, np.zeros(len(F), dtype=np.int64))
+    np.testing.assert_array_equal(counts, (F[:, None, :] <= Z[None, :, :]).all(axis=2).sum(axis=1))
+    Z_sorted, first = _sorted_samples(F, Z)
+    assert first.min() > 0 and first.mean() > 0.3 * len(Z)  # every row skips samples
+    counts_sorted, chosen_sorted = cover(Z_sorted, first)
+    np.testing.assert_array_equal(counts_sorted, counts)
+    np.testing.assert_array_equal(chosen_sorted, chosen)
+
+
 def test_igd_plus_counts_only_where_a_front_is_worse():
     R = np.array([[0.0, 1.0], [1.0, 0.0]])
     assert igd_plus(R, R) == 0.0

@@ -38,3 +38,24 @@ def test_self_time_excludes_the_compilations_started_inside():
     lines = compile_table(compile_times(events), top=1)
     assert "hevlib.sim.drive.kernel" in lines[1] and "1 more hevlib functions" in lines[2]
     assert lines[-1].split()[-1] == "1.00" and "(1 functions)" in lines[-1]
+
+
+def test_processes_merge_into_one_table():
+    """The warm-up's processes (one per vehicle kind) report one table: a helper both compiled counts its
+    compiler time twice but its signatures once; the self times still sum to the compiler time spent."""
+    from hevlib.warmup import CompileTime, merged
+
+    hybrid = [CompileTime("hevlib.sim.drive.drive_hybrid", 1, 30.0, 20.0), CompileTime("hevlib.t.step", 1, 3.0, 3.0)]
+    conventional = [
+        CompileTime("hevlib.sim.drive.drive_conventional", 1, 9.0, 6.0),
+        CompileTime("hevlib.t.step", 1, 2.5, 2.5),
+    ]
+    rows = {t.function: t for t in merged([hybrid, conventional])}
+    assert (rows["hevlib.t.step"].signatures, rows["hevlib.t.step"].self_s, rows["hevlib.t.step"].total_s) == (
+        1,
+        5.5,
+        5.5,
+    )
+    assert sum(t.self_s for t in rows.values()) == 31.5
+    assert [t.function for t in merged([hybrid, conventional])][0] == "hevlib.sim.drive.drive_hybrid"
+    assert merged([]) == []
