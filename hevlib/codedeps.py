@@ -15,7 +15,9 @@ The entry point (``stages/cli.py``) imports only the module of the command it ru
 from __future__ import annotations
 
 import ast
+import hashlib
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -72,6 +74,20 @@ def import_closure(root: Path, module: str) -> dict[str, Path]:
             seen[name] = path
             todo.extend(imported_names(path, name))
     return seen
+
+
+def closure_hash(root: Path, modules: Iterable[str], files: Iterable[str] = ()) -> str:
+    """Short hash of the source of every project module that importing ``modules`` can run (their
+    :func:`import_closure`) and of ``files`` (paths relative to ``root``): a stored result that code computed
+    is current only while this is unchanged."""
+    paths = {root / f for f in files}
+    for module in modules:
+        paths.update(import_closure(root, module).values())
+    h = hashlib.sha256()
+    for rel, path in sorted((p.relative_to(root).as_posix(), p) for p in paths):
+        h.update(rel.encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()[:16]
 
 
 def compact(root: Path, files: set[Path]) -> list[str]:

@@ -2,8 +2,8 @@
 every source (its own pipeline, ``benchmarks/surrogate/dvc.yaml``; not part of the default ``dvc repro``).
 
 Each run is written as soon as it ends (``data/benchmark/runs/<source>/run_<k>.parquet``) and a run
-already on disk with the same settings is not run again, so an interrupted benchmark resumes where it
-stopped (``--fresh`` runs everything again)."""
+already on disk with the same settings, simulator and run code is not run again, so an interrupted benchmark
+resumes where it stopped (``--fresh`` runs everything again)."""
 
 from __future__ import annotations
 
@@ -19,17 +19,25 @@ from stages.doe import DOE
 from stages.heldout import HELDOUT
 
 RUNS_DIR = Path("data/benchmark/runs")
+ROOT = Path(__file__).resolve().parents[1]
+#: The code a stored run executes besides the simulator (whose source is in the simulation fingerprint): the
+#: benchmark's run drivers with everything they import (optimisers, surrogates, scoring), and the problem
+#: factory it shares with ``hev optimise``. An edit there runs every seed again; a report or plot edit does not.
+RUN_CODE_MODULES: tuple[str, ...] = ("hevlib.benchmark.runs",)
+RUN_CODE_FILES: tuple[str, ...] = ("stages/optimise.py",)
 REPORT_DIR = Path("reports/benchmark")
 
 
-def _settings_fingerprint(cfg, source: str) -> str:
-    """What a stored run depends on besides the code: the simulator, the study's optimiser and surrogate
-    settings, the screen, and this source's benchmark settings."""
+def _settings_fingerprint(cfg, source: str, root: Path = ROOT) -> str:
+    """What a stored run depends on: the simulator, the code that runs it (``RUN_CODE_*``), the study's
+    optimiser and surrogate settings, the screen, and this source's benchmark settings."""
+    from hevlib.codedeps import closure_hash
     from hevlib.doe import simulation_fingerprint
 
     blob = json.dumps(
         {
             "sim": simulation_fingerprint(cfg),
+            "code": closure_hash(root, RUN_CODE_MODULES, RUN_CODE_FILES),
             **cfg.model_dump(mode="json", include={"design_space", "surrogate", "optimise", "screen", "doe"}),
             "benchmark": cfg.benchmark.model_dump(mode="json", exclude={"sources", "seeds", "oracle_seeds"}),
             "source": source,

@@ -265,3 +265,35 @@ def test_the_judged_normalisation_never_reaches_a_search():
 def test_responses_cover_the_run_schema():
     assert [f.name for f in RUN_SCHEMA][1 + 7 : 1 + 7 + len(RESPONSES)] == [f"sim_{k}" for k in RESPONSES]
     assert to_minimisation(np.ones(len(OBJECTIVES))).shape == (len(OBJECTIVES),)
+
+
+def test_a_stored_run_is_current_only_while_the_code_it_ran_is_unchanged(tmp_path):
+    """The benchmark reuses a run on disk only if its fingerprint matches, and the fingerprint carries the run
+    code: an edit to an optimiser or to the shared problem factory runs the seeds again, a plot edit does not."""
+    import shutil
+    from pathlib import Path
+
+    from hevlib.codedeps import closure_hash
+    from stages.benchmark import RUN_CODE_FILES, RUN_CODE_MODULES
+
+    repo = Path(__file__).resolve().parents[1]
+    root = tmp_path / "repo"
+    for package in ("hevlib", "stages"):
+        shutil.copytree(repo / package, root / package, ignore=shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc"))
+
+    def fingerprint() -> str:
+        return closure_hash(root, RUN_CODE_MODULES, RUN_CODE_FILES)
+
+    def edit(rel: str) -> None:
+        path = root / rel
+        path.write_text(path.read_text().replace('"""', '"""Edited. ', 1))
+
+    before = fingerprint()
+    edit("hevlib/plots/benchmark.py")
+    edit("hevlib/benchmark/report.py")
+    assert fingerprint() == before  # the report and its figure are not run code
+    edit("hevlib/optimise/infill.py")
+    after_optimiser = fingerprint()
+    assert after_optimiser != before
+    edit("stages/optimise.py")
+    assert fingerprint() != after_optimiser
