@@ -44,13 +44,15 @@ def front_schema(with_std: bool) -> pa.Schema:
     return pa.schema(fields)
 
 
-def front_table(front: Front, sim: pd.DataFrame, problem: HevProblem) -> pd.DataFrame:
+def front_table(front: Front, sim: pd.DataFrame, problem: HevProblem, dominance: bool = True) -> pd.DataFrame:
     """One row per front design: variables, predicted (and std), simulated, exact mass, flags.
 
     ``feasible``: every constraint of ``problem`` met as the optimiser saw it (exact mass, exact power
     ratio, predicted speed deviation; true for every row of a :class:`Front`);
     ``nondominated_sim``: not dominated within this front by the simulated objectives (minimisation
-    form); a design with a non-finite simulated objective is never non-dominated.
+    form); a design with a non-finite simulated objective is never non-dominated. Left out with
+    ``dominance=False``, for a caller that judges dominance itself on a subset (:func:`archive_front` on
+    an archive's screen-passing designs).
     """
     cols: dict[str, np.ndarray] = {}
     for j, v in enumerate(DESIGN_VARS):
@@ -65,11 +67,12 @@ def front_table(front: Front, sim: pd.DataFrame, problem: HevProblem) -> pd.Data
     G = problem.constraint(front.X, front.F) if len(front) else np.zeros((0, problem.n_ieq_constr))
     cols["m_veh_exact_kg"] = (G[:, 0] + 1.0) * problem.m_veh_max_kg
     cols["feasible"] = np.all(G <= 0.0, axis=1)
-    Fs = to_minimisation(sim[list(OBJECTIVES)].to_numpy(dtype=float)) if len(front) else np.zeros((0, 11))
-    finite = np.all(np.isfinite(Fs), axis=1)
-    nd = np.zeros(len(front), dtype=bool)
-    nd[finite] = nondominated_mask(Fs[finite])
-    cols["nondominated_sim"] = nd
+    if dominance:
+        Fs = to_minimisation(sim[list(OBJECTIVES)].to_numpy(dtype=float)) if len(front) else np.zeros((0, 11))
+        finite = np.all(np.isfinite(Fs), axis=1)
+        nd = np.zeros(len(front), dtype=bool)
+        nd[finite] = nondominated_mask(Fs[finite])
+        cols["nondominated_sim"] = nd
     return pd.DataFrame(cols)
 
 
