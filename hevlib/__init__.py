@@ -9,6 +9,8 @@ import hashlib
 import os
 from pathlib import Path
 
+from hevlib import determinism as _determinism
+
 __version__ = "0.1.0"
 #: Bumped whenever the simulator's physics change: stored with every simulated artifact.
 MODEL_VERSION = "sim-4"
@@ -43,6 +45,20 @@ def source_hash(names=_KERNEL_SOURCES) -> str:
 if "NUMBA_CACHE_DIR" not in os.environ:
     _base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hev-sizing" / "numba"
     os.environ["NUMBA_CACHE_DIR"] = str(_base / source_hash())
+
+
+# one code path and one thread count for every numeric library on every CPU (hevlib/determinism.py): the
+# variables a library reads when it loads, for those not loaded yet (`hev` re-executes itself with all of them)
+_late = _determinism.pin_in_process()
+if _late:
+    import warnings
+
+    warnings.warn(
+        f"hevlib imported after {', '.join(_late)}: their CPU-dependent code paths are not pinned, so results may "
+        "differ from another CPU's in the last digits (import hevlib first, or run through `hev`)",
+        RuntimeWarning,
+        stacklevel=2,
+    )
 
 
 def numba_cache_dir() -> str:

@@ -213,12 +213,16 @@ def heldout_record(space: DesignSpace, p) -> dict:
 
 def simulation_fingerprint(params) -> str:
     """Short hash of everything that changes a simulated response on the sizing cycle: the model version, the
-    simulator's source code and :func:`hevlib.params.sizing_simulation_keys` (a cached simulated set is reused
-    only if equal)."""
+    simulator's source code, the pinned code paths of the numeric libraries (:mod:`hevlib.determinism`: glibc's
+    libm rounds the kernels' ``exp`` and ``pow``) and :func:`hevlib.params.sizing_simulation_keys` (a cached
+    simulated set is reused only if equal)."""
+    from hevlib import determinism
+
     blob = json.dumps(
         {
             "model_version": MODEL_VERSION,
             "simulator_source": source_hash(SIMULATOR_SOURCES),
+            "pins": "native" if determinism.disabled() else determinism.PINNED,
             **sizing_simulation_keys(params),
         },
         sort_keys=True,

@@ -405,6 +405,15 @@ class BenchmarkParams(_Strict):
     a12_large: Annotated[float, Field(gt=0.5, lt=1)] = 0.71  # Vargha-Delaney's "large" effect
 
 
+# -------------------------------------------------------------------------------------- robustness
+class RobustnessParams(_Strict):
+    """How stable the answer is across seeds (``hev robustness``, benchmarks/robustness/dvc.yaml; not in the
+    default pipeline): the optimise -> pareto -> validate chain rerun with other seeds of every source."""
+
+    seeds: Annotated[int, Field(ge=2, le=1000)] = 6  # replicates; replicate 0 keeps the params' own seeds
+    seed: Seed = 3636  # root of the other replicates' seeds (numpy SeedSequence([seed, source, replicate]))
+
+
 # ------------------------------------------------------------------------------------------ screen
 class ScreenParams(_Strict):
     """Screening of the merged non-dominated designs, ranking, and the pick for validation (SPEC 9)."""
@@ -427,10 +436,23 @@ class ScreenParams(_Strict):
 
 
 # ---------------------------------------------------------------------------------------- validate
+class EquivalenceParams(_Strict):
+    """The recommendation's near-equivalents (hevlib/recommend.py): the model's noise at each eligible design,
+    from twins whose continuous variables differ by at most ``share`` of their ranges, and the knee drawn among
+    them ``draws`` times; designs that are the knee in at least ``min_share`` of the draws are equivalents."""
+
+    twins: Annotated[int, Field(ge=1, le=1000)] = 8
+    share: Annotated[float, Field(gt=0, le=0.05)] = 0.02
+    draws: Annotated[int, Field(ge=10, le=1_000_000)] = 2000
+    min_share: Annotated[float, Field(gt=0, le=0.5)] = 0.05
+    seed: Seed = 36
+
+
 class ValidateParams(_Strict):
     """Cycles the picked designs and both baselines are simulated on; the first is the headline cycle."""
 
     cycles: list[Annotated[str, Field(pattern=r"^[A-Za-z0-9_]+$")]] = ["ftp", "hwfet", "us06"]
+    equivalence: EquivalenceParams = EquivalenceParams()
 
     @model_validator(mode="after")
     def _cycles(self):
@@ -453,6 +475,7 @@ class Params(_Strict):
     screen: ScreenParams = ScreenParams()
     validation: ValidateParams = Field(ValidateParams(), alias="validate")
     benchmark: BenchmarkParams = BenchmarkParams()
+    robustness: RobustnessParams = RobustnessParams()
 
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True, strict=True)
 

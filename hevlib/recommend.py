@@ -18,6 +18,15 @@ the point where trading one criterion for another costs most (Das 1999, "On char
 the Pareto curve based on normal-boundary intersection"; Deb & Gupta 2011). Where the extremes do not span
 a plane (repeated or collinear), the plane is the equal-weight one, ``sum f_i = const``.
 
+**Near-equivalents** (:func:`knee_shares`, :func:`equivalents`): the model's noise at a design is the spread of
+its knee criteria over *twins*, copies whose continuous variables differ from it by at most a small share of their
+ranges (below any build tolerance: ``validate.equivalence``), simulated on the headline cycle like the design. The
+knee is drawn again and again with every eligible design represented by itself or one of its twins at random; a
+design that comes out as the knee in at least ``min_share`` of the draws cannot be told from the recommended one by
+the model: the answer is the recommended design *or any of its equivalents*, and what separates them is listed.
+**Families** (:func:`same_family`): designs whose every variable lies within :data:`FAMILY_SHARE` of its range of
+each other -- the unit ``hev robustness`` counts recommendations in.
+
 **Reasons** (:func:`reasons`): the design-box bounds a design touches (within :data:`BOUND_TOL` of the range),
 the screen rules it is close to (margin within :data:`ACTIVE_MARGIN` of the limit), and its margin to each
 rule. **Active bounds** (:func:`active_bounds`): bounds at which at least :data:`FLAG_SHARE` of the kept
@@ -57,6 +66,8 @@ BOUND_TOL = 0.01
 FLAG_SHARE = 0.10
 #: A screen rule is active when a design's margin (``value / limit - 1``) is within this of 0.
 ACTIVE_MARGIN = 0.05
+#: Two designs are of one family when every variable is within this share of its range of the other's.
+FAMILY_SHARE = 0.05
 
 
 # ------------------------------------------------------------------------------------------ choice
@@ -104,6 +115,61 @@ def shortlist(kept: pd.DataFrame, k: int, prefix: str = "sim_") -> tuple[np.ndar
         roles[f"best_{group}"] = best_of_group(minimisation(kept, names, prefix))
     F = normalise(minimisation(kept, OBJECTIVES, prefix))
     return pick_diverse(F, k, start=list(roles.values())), roles
+
+
+# ---------------------------------------------------------------------------- equivalents and families
+def same_family(X: np.ndarray, x: np.ndarray, lower: np.ndarray, upper: np.ndarray, share: float = FAMILY_SHARE):
+    """Rows of ``X`` (n, 7) of ``x``'s family: every variable within ``share`` of its range of ``x``'s."""
+    X = np.atleast_2d(np.asarray(X, dtype=float))
+    span = np.asarray(upper, dtype=float) - np.asarray(lower, dtype=float)
+    return np.all(np.abs(X - np.asarray(x, dtype=float)) <= share * span + 1e-12, axis=1)
+
+
+def knee_shares(versions: Sequence[np.ndarray], draws: int, rng: np.random.Generator) -> np.ndarray:
+    """Share of ``draws`` in which each design is the knee (:func:`knee_index`) when every design is represented
+    by one of its ``versions`` (design i: an (m_i, k) array of knee criteria in minimisation form, finite, the
+    design itself and its twins) drawn uniformly at random."""
+    n = len(versions)
+    counts = np.zeros(n, dtype=np.int64)
+    sizes = np.array([len(v) for v in versions])
+    if n == 0 or np.any(sizes == 0):
+        raise ValueError("knee_shares: every design needs at least one version")
+    pick = (rng.random((int(draws), n)) * sizes).astype(np.int64)
+    for d in range(int(draws)):
+        F = np.stack([versions[i][pick[d, i]] for i in range(n)])
+        counts[knee_index(F)] += 1
+    return counts / float(draws)
+
+
+def noise_spread(versions: Sequence[np.ndarray]) -> np.ndarray:
+    """The model's noise per criterion: the root mean square over designs and twins of a twin's deviation from
+    its design (row 0 of each version array), in the criteria's units."""
+    dev = [v[1:] - v[0] for v in versions if len(v) > 1]
+    if not dev:
+        return np.full(versions[0].shape[1] if len(versions) else 0, np.nan)
+    D = np.concatenate(dev)
+    return np.sqrt(np.mean(D**2, axis=0))
+
+
+def separation(x_a: Mapping[str, float], x_b: Mapping[str, float], space, share: float = FAMILY_SHARE) -> list[dict]:
+    """What separates design ``b`` from ``a``: the variables that differ by more than ``share`` of their range,
+    ``[{variable, recommended, this, difference, share_of_range}]`` (largest share first)."""
+    out = []
+    for v in DESIGN_VARS:
+        lo, hi = (float(b) for b in getattr(space, v))
+        diff = float(x_b[v]) - float(x_a[v])
+        frac = abs(diff) / (hi - lo)
+        if frac > share + 1e-12:
+            out.append(
+                {
+                    "variable": v,
+                    "recommended": float(x_a[v]),
+                    "this": float(x_b[v]),
+                    "difference": diff,
+                    "share_of_range": frac,
+                }
+            )
+    return sorted(out, key=lambda d: -d["share_of_range"])
 
 
 # ------------------------------------------------------------------------------------------ reasons
@@ -213,6 +279,7 @@ def recommend(designs: pd.DataFrame, eligible: np.ndarray) -> dict:
 __all__ = [
     "ACTIVE_MARGIN",
     "BOUND_TOL",
+    "FAMILY_SHARE",
     "FLAG_SHARE",
     "GROUPS",
     "KNEE_CRITERIA",
@@ -222,9 +289,13 @@ __all__ = [
     "best_of_group",
     "bounds_touched",
     "knee_index",
+    "knee_shares",
     "minimisation",
+    "noise_spread",
     "reasons",
     "recommend",
+    "same_family",
     "screen_margins",
+    "separation",
     "shortlist",
 ]

@@ -265,7 +265,133 @@ def _reasons_lines(d: Mapping) -> list[str]:
     return out
 
 
-def _build_this(validation: Mapping, pareto: Mapping) -> list[str]:
+def _equivalents_lines(rec: Mapping) -> list[str]:
+    """The model's noise at the eligible picks and the recommendation's near-equivalents, with what separates
+    each from it (``recommendation.noise``, ``recommendation.equivalents``)."""
+    noise = rec.get("noise")
+    if not noise:
+        return []
+    d = rec["design"]
+    sig = ", ".join(
+        f"{_labelled(c)} ±{_fmt(noise['sigma'][c])} ({_round(noise['sigma_pct_of_mean'][c])} %)" for c in noise["sigma"]
+    )
+    own = 100 * noise["knee_share"].get(d["design_id"], 0.0)
+    others = sorted(((v, k) for k, v in noise["knee_share"].items() if k != d["design_id"] and v > 0), reverse=True)
+    out = [
+        f"**Within the model's noise.** Twins of each eligible pick, its continuous variables moved by at most "
+        f"{100 * noise['share_of_range']:g} % of their ranges, scatter the knee criteria by {sig} (root mean square). "
+        f"With every pick drawn as itself or one of its {noise['twins']} twins, {d['design_id']} is the knee in "
+        f"{own:.0f} % of {noise['draws']} draws"
+        + ("; " + ", ".join(f"{k} in {100 * v:.1f} %" for v, k in others) if others else "")
+        + ".",
+        "",
+    ]
+    eq = rec.get("equivalents") or []
+    if not eq:
+        return out + [
+            f"No other eligible pick is the knee in {100 * noise['min_share']:g} % of the draws or more: the model's "
+            "noise does not swap the answer.",
+            "",
+        ]
+    crit = list(noise["sigma"])
+    rows = [
+        [
+            e["design_id"],
+            e["algo"],
+            _round(100 * e["knee_share"]),
+            *[e["criteria"][c] for c in crit],
+            *[_round(e["vs_recommended"][c]["pct"]) for c in crit],
+            "; ".join(f"{s['variable']} {_fmt(s['recommended'])} → {_fmt(s['this'])}" for s in e["separated_by"])
+            or "nothing beyond 5 % of a range (same family)",
+        ]
+        for e in eq
+    ]
+    return out + [
+        f"Near-equivalents: the knee in at least {100 * noise['min_share']:g} % of the draws, so the same answer as "
+        f"{d['design_id']} (another seed or machine that recommends one of them agrees with this one):",
+        "",
+        markdown_table(
+            [
+                "design",
+                "found by",
+                "knee in % of draws",
+                *[_labelled(c) for c in crit],
+                *[f"Δ {c} %" for c in crit],
+                "separated by (variables more than 5 % of their range apart)",
+            ],
+            rows,
+        ),
+        "",
+    ]
+
+
+def _seed_spread_lines(validation: Mapping, robustness: Mapping | None) -> list[str]:
+    """The headline's seed spread next to this run's single-seed figures (``hev robustness``)."""
+    out = ["### Across seeds (the seed spread of this answer)", ""]
+    if not robustness:
+        return out + [
+            "No robustness study on disk: `dvc repro benchmarks/robustness/dvc.yaml` measures the seed spread.",
+            "",
+        ]
+    n = robustness["replicates"]
+    head = validation.get("recommendation") or {}
+    this = (head.get("design") or {}).get("design_id")
+    status = (
+        "made with these settings and code"
+        if robustness.get("current")
+        else "**made with other settings or code** (e.g. the default profile): rerun "
+        "`dvc repro benchmarks/robustness/dvc.yaml` for figures of this run"
+    )
+    rows = []
+    for key, label in (
+        ("rec_fc_cb_pct", "recommended design's charge-balanced saving vs conventional [%]"),
+        ("fc_cb_pct", "picks' mean charge-balanced saving vs conventional [%]"),
+        ("fc_vs_prius_pct", "picks' mean fuel saving vs the stock Prius, study's protocol [%]"),
+        ("mass_pct", "picks' mean mass saving [%]"),
+    ):
+        sp = robustness["spread"].get(key, {})
+        if sp.get("n"):
+            rows.append([label, sp["replicate_0"], sp["mean"], sp["std"], sp["min"], sp["max"]])
+    same = sum(1 for d in robustness["recommended"] if d["default_answer"])
+    runs = {r["replicate"]: r for r in robustness["runs"]}
+    out += [
+        f"The chain after the surrogates (every source, the screen, validation) rerun with {n} seeds per source "
+        f"(`hev robustness`, `reports/robustness/summary.json`, {status}). Seeds of params.yaml: recommended "
+        f"{robustness['runs'][0]['recommended']}"
+        + (f" (this run: {this})" if this and this != robustness["runs"][0]["recommended"] else "")
+        + f". The recommended design is the default answer -- of its family (every variable within "
+        f"{100 * robustness['family_share_of_range']:g} % of its range) or a near-equivalent's -- in {same} of the "
+        f"{len(robustness['recommended'])} replicates (replicate 0 included):",
+        "",
+        markdown_table(["figure", "params' seeds", "mean", "sd", "min", "max"], rows),
+        "",
+        "Where the recommended designs of the replicates lie (share of the design box they span): "
+        + ", ".join(
+            f"{v} {_fmt(r['min'])}–{_fmt(r['max'])} ({100 * r['share_of_range']:.0f} %)"
+            for v, r in robustness.get("variable_range", {}).items()
+        )
+        + ".",
+        "",
+        markdown_table(
+            ["replicate", "recommended", "found by", "the default answer?", "rec_fc_cb_pct", "p_eng_kw"],
+            [
+                [
+                    d["replicate"],
+                    d["design_id"],
+                    d["algo"],
+                    d["default_answer_as"] or "no: another answer",
+                    runs[d["replicate"]]["answer"].get("rec_fc_cb_pct"),
+                    d["design"]["p_eng_kw"],
+                ]
+                for d in robustness["recommended"]
+            ],
+        ),
+        "",
+    ]
+    return out
+
+
+def _build_this(validation: Mapping, pareto: Mapping, robustness: Mapping | None = None) -> list[str]:
     rec = validation.get("recommendation")
     if not rec:
         return []
@@ -281,6 +407,8 @@ def _build_this(validation: Mapping, pareto: Mapping) -> list[str]:
         "",
         *_reasons_lines(d),
         "",
+        *_equivalents_lines(rec),
+        *_seed_spread_lines(validation, robustness),
     ]
     cycles = list(d["by_cycle"])
     for cycle in cycles:
@@ -430,15 +558,17 @@ def build_summary(
     selected: pd.DataFrame,
     plots: Mapping[str, str],
     notes: Sequence[str] = (),
+    robustness: Mapping | None = None,
 ) -> str:
-    """The whole ``summary.md`` text. ``plots`` maps a caption to a path relative to the summary."""
+    """The whole ``summary.md`` text. ``plots`` maps a caption to a path relative to the summary; ``robustness``:
+    ``reports/robustness/summary.json`` with ``current`` (whether it was made with these settings and code)."""
     cycle = validation["cycle"]
     imp = validation["improvement"]
     fails = validation["counts"].get("failed_cycles", {})
     out = [
         "# hev-sizing: selection and validation summary",
         "",
-        *_build_this(validation, pareto),
+        *_build_this(validation, pareto, robustness),
         "## How to read the rest",
         "",
         "Generated by `hev validate` (do not edit): improvements are means over the picked designs, "

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import ast
 import importlib
-import os
 import sys
 from pathlib import Path
 
@@ -105,17 +104,13 @@ def _listed() -> None:  # pragma: no cover - a listing entry; `hev <command>` im
     raise typer.Exit(code=2)
 
 
-#: Python's string hashing is salted per process unless PYTHONHASHSEED is set. pymoo's resumed NSGA-III
-#: search (the infill rounds) turned out to depend on it (measured: seeds 1-4 gave three different
-#: fronts from the same inputs), so every `hev` command runs with this fixed seed.
-HASH_SEED = "1"
-
-
 def main() -> None:
-    """The ``hev`` entry point: re-executes itself once with ``PYTHONHASHSEED`` fixed, then runs the app."""
-    if os.environ.get("PYTHONHASHSEED") != HASH_SEED:
-        os.environ["PYTHONHASHSEED"] = HASH_SEED
-        os.execv(sys.executable, [sys.executable, "-m", "stages.cli", *sys.argv[1:]])
+    """The ``hev`` entry point: re-executes itself once under the pinned environment (one code path and thread
+    count per numeric library, glibc's libm without FMA, Python's hash seed: :mod:`hevlib.determinism`), so
+    every command gives the same bytes on every x86-64 CPU; then runs the app."""
+    from hevlib.determinism import ensure_pinned
+
+    ensure_pinned(["-m", "stages.cli", *sys.argv[1:]])
     _register_for(sys.argv[1:])
     app(prog_name="hev")
 

@@ -16,14 +16,17 @@ from hevlib.validation import (
     answer,
     cold_start_window_s,
     cycle_notes,
+    eligible_ids,
     failed_cycles,
     ftp_bags,
     headline,
     load_cycles,
     prius_design,
     recommendation,
+    simulate_twins,
     summarise,
     traces,
+    twins_schema,
     validation_schema,
     validation_table,
 )
@@ -33,6 +36,7 @@ from stages.common import CYCLES_DIR, PARAMS_OPTION, cycle_named, params_from, s
 SELECTED = Path("data/pareto/selected.parquet")
 PARETO_JSON = Path("reports/pareto.json")
 TABLE = Path("reports/validation.parquet")
+TWINS = Path("reports/validation_twins.parquet")  # the eligible picks' twins: the model's noise (recommendation)
 METRICS = Path("reports/validation.json")
 HEADLINE = Path("reports/headline.json")
 ANSWER = Path("reports/answer.json")  # the declared DVC metric: the headline under short keys
@@ -40,6 +44,17 @@ SUMMARY = Path("reports/summary.md")
 EXPLORER = Path("reports/explorer.html")
 MERGED = Path("data/pareto/merged.parquet")
 PLOTS_DIR = Path("reports/plots/validation")
+ROBUSTNESS = Path("reports/robustness/summary.json")  # the seed spread (`hev robustness report`), if measured
+
+
+def _robustness(params_path: str) -> dict | None:
+    """The committed robustness summary, with ``current``: whether it was made with these settings and code."""
+    if not ROBUSTNESS.exists():
+        return None
+    from hevlib.robustness import settings_fingerprint
+
+    summary = json.loads(ROBUSTNESS.read_text())
+    return {**summary, "current": summary.get("fingerprint") == settings_fingerprint(params_path)[1]}
 
 
 @app.command("validate")
@@ -62,7 +77,11 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     sizing_cycle = cycle_named(sizing_name)
     sizing = {v: sim.run(prius_x[None, :], sizing_cycle, v).iloc[0].to_dict() for v in ("prius", "conventional")}
     summary = summarise(table, algos, names, params.baseline.conventional.p_eng_kw)
-    rec = recommendation(table, selected, names, params.screen, params.design_space)
+    eq = params.validation.equivalence
+    twins = simulate_twins(
+        sim, selected, eligible_ids(table, names, params.screen), cycles[0], params.design_space.space(), eq
+    )
+    rec = recommendation(table, selected, names, params.screen, params.design_space, twins, eq)
     summary["recommendation"] = rec
     summary["counts"]["failed_cycles"] = failed_cycles(table, names)
     if rec["design"] is not None and names[0] == "ftp":
@@ -98,19 +117,29 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
         if f"catalyst_{names[0]}.png" in figures:
             caption = f"{names[0]} cold start: catalyst warm-up of recommended design {best} against both baselines"
             plots[caption] = f"plots/validation/catalyst_{names[0]}.png"
-    text = build_summary(pareto, summary, table, selected, plots, notes)
+    text = build_summary(pareto, summary, table, selected, plots, notes, _robustness(params_path))
 
     write_parquet(TABLE, table, validation_schema())
+    write_parquet(TWINS, twins, twins_schema())
     write_json(METRICS, summary)
     head = headline(summary)
     write_json(HEADLINE, head)
     write_json(ANSWER, answer(head))
-    write_explorer(EXPLORER, explorer_data(read_table(MERGED), sizing, best if rec["design"] else None, sizing_name))
+    equivalents = [e["design_id"] for e in rec["equivalents"]]
+    write_explorer(
+        EXPLORER, explorer_data(read_table(MERGED), sizing, best if rec["design"] else None, sizing_name, equivalents)
+    )
     for name, fig in figures.items():
         save_figure(fig, PLOTS_DIR / name)
     write_text(SUMMARY, text)
     typer.echo(
         f"validate: {summary['counts']['picked']} picks on {', '.join(names)}; recommended "
-        f"{best if rec['design'] is not None else 'none'} -> wrote {TABLE}, {METRICS}, {HEADLINE}, {ANSWER}, "
+        f"{best if rec['design'] is not None else 'none'}"
+        + (
+            f" (near-equivalents: {', '.join(e['design_id'] for e in rec['equivalents'])})"
+            if rec["equivalents"]
+            else ""
+        )
+        + f" -> wrote {TABLE}, {METRICS}, {HEADLINE}, {ANSWER}, "
         f"{SUMMARY}, {EXPLORER}"
     )

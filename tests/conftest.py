@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import shutil
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -15,6 +17,42 @@ register_all()  # `hev <command>` imports only its own module; CliRunner tests i
 
 ROOT = Path(__file__).resolve().parents[1]
 RAW = ROOT / "data" / "raw"
+
+
+#: Two CPU kinds, as the libraries would see them. ``host``: this machine as it is (here an AVX-512 CPU:
+#: numpy's X86_V4 kernels, OpenBLAS SkylakeX, torch AVX512, glibc's FMA libm, numba for the host, every core).
+#: ``avx2_nofma``: a CPU without AVX-512 (numpy's AVX2 kernels, OpenBLAS Haswell, torch and MKL AVX2, numba
+#: code for haswell) whose libm takes glibc's non-FMA variants, one numba thread, four BLAS / OpenMP threads.
+CPU_KINDS: dict[str, dict[str, str]] = {
+    "host": {},
+    "avx2_nofma": {
+        "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
+        "OPENBLAS_CORETYPE": "Haswell",
+        "OPENBLAS_NUM_THREADS": "4",
+        "OMP_NUM_THREADS": "4",
+        "MKL_NUM_THREADS": "4",
+        "ATEN_CPU_CAPABILITY": "avx2",
+        "MKL_ENABLE_INSTRUCTIONS": "AVX2",
+        "GLIBC_TUNABLES": "glibc.cpu.hwcaps=-FMA,-FMA4",
+        "NUMBA_CPU_NAME": "haswell",
+        "NUMBA_NUM_THREADS": "1",
+    },
+}
+
+
+def copy_repo(root: Path, dest: Path) -> None:
+    """The files git tracks or would track (new, not ignored): what a clone plus this change holds."""
+    listed = subprocess.run(
+        ["git", "ls-files", "--cached", "--others", "--exclude-standard", "-z"],
+        cwd=root,
+        capture_output=True,
+        check=True,
+    ).stdout.decode()
+    for rel in filter(None, listed.split("\0")):
+        src = root / rel
+        if src.is_file():
+            (dest / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src, dest / rel)
 
 
 @pytest.fixture(scope="session")

@@ -39,7 +39,7 @@ def page(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("explorer")
     merged = _merged(tmp / "merged.parquet")
     base = {"prius": {v: 30.0 for v in (*DESIGN_VARS, *OBJECTIVES)}, "conventional": {k: 20.0 for k in OBJECTIVES}}
-    html = explorer_html(explorer_data(merged, base, "oracle-1", "udds"))
+    html = explorer_html(explorer_data(merged, base, "oracle-1", "udds", equivalents=["oracle-2"]))
     path = tmp / "explorer.html"
     path.write_text(html)
     driver = chromium()
@@ -82,6 +82,15 @@ def test_the_table_shows_the_parquets_numbers(page):
         for k in OBJECTIVES:
             got = float(cells[next(c for c in shown.columns if c.split(" ")[0] == k)])
             assert got == pytest.approx(row[f"sim_{k}"], rel=1e-5)
+
+
+def test_the_recommended_design_and_its_near_equivalents_are_marked(page):
+    driver, _, html, _ = page
+    status = _table(driver).set_index("design")["status"]
+    assert status["oracle-1"] == "recommended" and status["oracle-2"] == "near-equivalent"
+    assert status["nsga3-0"] == "picked" and "near-equivalents within the model's noise (oracle-2)" in html
+    names = driver.execute_script("return document.getElementById('scatter').data.map(t => t.name)")
+    assert "near-equivalents" in names and "recommended" in names
 
 
 def test_dragging_an_axis_filters_the_table_to_the_brushed_range_and_copies_a_designs_csv(page):

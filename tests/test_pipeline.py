@@ -12,6 +12,7 @@ from pathlib import Path
 import pyarrow.parquet as pq
 import pytest
 import yaml
+from conftest import copy_repo
 from typer.testing import CliRunner
 
 from hevlib.components import ComponentLibrary
@@ -65,29 +66,10 @@ def test_stages_build_their_outputs_and_rebuild_the_same_bytes(root, tmp_path, m
     assert _snapshot(tmp_path) == first  # deterministic, byte for byte
 
 
-def _copy_repo(root: Path, dest: Path) -> None:
-    """The files git tracks or would track (new, not ignored): what a clone plus this change holds."""
-    listed = (
-        subprocess.run(
-            ["git", "ls-files", "--cached", "--others", "--exclude-standard", "-z"],
-            cwd=root,
-            capture_output=True,
-            check=True,
-        )
-        .stdout.decode()
-        .split("\0")
-    )
-    for rel in filter(None, listed):
-        src = root / rel
-        if src.is_file():
-            (dest / rel).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(src, dest / rel)
-
-
 @pytest.mark.slow
 def test_dvc_repro_builds_both_stages_in_a_copy_of_the_repo(root, tmp_path):
     repo = tmp_path / "repo"
-    _copy_repo(root, repo)
+    copy_repo(root, repo)
     env = {
         **os.environ,
         "PATH": f"{BIN}{os.pathsep}{os.environ.get('PATH', '')}",

@@ -12,13 +12,18 @@ from hevlib.design import DESIGN_VARS, OBJECTIVES
 from hevlib.params import DesignSpaceParams, ScreenParams
 from hevlib.pareto import pick_diverse, select_designs
 from hevlib.recommend import (
+    FAMILY_SHARE,
     FLAG_SHARE,
     active_bounds,
     best_of_group,
     bounds_touched,
     knee_index,
+    knee_shares,
+    noise_spread,
     recommend,
+    same_family,
     screen_margins,
+    separation,
     shortlist,
 )
 from hevlib.screen import screening_rules
@@ -120,3 +125,48 @@ def test_the_recommend_pick_is_a_deterministic_shortlist_seeded_by_the_knee_and_
     picks, seeds = shortlist(kept[[c for c in kept.columns if c.startswith("sim_")]], 8)
     assert len(picks) == 8 and set(seeds) == set(roles)
     assert set(OBJECTIVES) <= {c[4:] for c in kept.columns if c.startswith("sim_")}
+
+
+# --------------------------------------------------------------------------------- near-equivalents
+def test_a_knee_far_from_its_rivals_wins_every_draw_and_a_near_tie_splits_them():
+    front = [np.array([[0.0, 1.0]]), np.array([[0.2, 0.25]]), np.array([[1.0, 0.0]]), np.array([[0.6, 0.6]])]
+    rng = np.random.default_rng(0)
+    # no twins, or twins that barely move: the knee is row 1 in every draw
+    assert knee_shares(front, 200, rng).tolist() == [0.0, 1.0, 0.0, 0.0]
+    twins = [np.vstack([f, f + 1e-4]) for f in front]
+    np.testing.assert_array_equal(knee_shares(twins, 200, rng), [0.0, 1.0, 0.0, 0.0])
+    # two designs equally deep below the plane of the extremes, each with a twin a little deeper or shallower:
+    # the noise decides which is the knee, about half the time each (5 of the 9 pairs favour the first: exact
+    # ties go to the lower row)
+    tie = [
+        np.array([[0.0, 1.0]]),
+        np.array([[0.2, 0.3], [0.19, 0.29], [0.21, 0.31]]),
+        np.array([[0.3, 0.2], [0.295, 0.195], [0.305, 0.205]]),
+        np.array([[1.0, 0.0]]),
+    ]
+    shares = knee_shares(tie, 4000, np.random.default_rng(1))
+    assert shares.sum() == pytest.approx(1.0) and shares[0] == shares[3] == 0.0
+    assert shares[1] == pytest.approx(5 / 9, abs=0.03) and shares[2] == pytest.approx(4 / 9, abs=0.03)
+    with pytest.raises(ValueError, match="at least one version"):
+        knee_shares([np.zeros((0, 2))], 10, rng)
+
+
+def test_noise_spread_is_the_rms_deviation_of_the_twins_from_their_design():
+    versions = [np.array([[1.0, 10.0], [1.1, 10.0], [0.9, 10.0]]), np.array([[2.0, 20.0], [2.0, 22.0]])]
+    np.testing.assert_allclose(noise_spread(versions), [np.sqrt(0.02 / 3), np.sqrt(4 / 3)])
+    assert np.isnan(noise_spread([np.array([[1.0, 2.0]])])).all()  # no twins: no estimate
+
+
+def test_families_and_what_separates_two_designs():
+    space = DesignSpaceParams()
+    lo, hi = space.space().lower, space.space().upper
+    a = np.array([40.0, 30.0, 15.0, 3.0, 30, 70, 30])
+    b = a + FAMILY_SHARE * 0.9 * (hi - lo)  # every variable a little less than 5 % of its range away
+    c = a.copy()
+    c[0] += 0.2 * (hi[0] - lo[0])  # the engine 20 % of its range bigger
+    assert same_family(np.vstack([a, b, c]), a, lo, hi).tolist() == [True, True, False]
+    x = dict(zip(DESIGN_VARS, a, strict=True))
+    assert separation(x, dict(zip(DESIGN_VARS, b, strict=True)), space) == []
+    sep = separation(x, dict(zip(DESIGN_VARS, c, strict=True)), space)
+    assert [s["variable"] for s in sep] == ["p_eng_kw"] and sep[0]["difference"] == pytest.approx(9.0)
+    assert sep[0]["share_of_range"] == pytest.approx(0.2)

@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 from hevlib.cycles import Cycle
 from hevlib.design import CHARGE_BALANCE_RESPONSES, DESIGN_VARS, OBJECTIVES, RESPONSES
 from hevlib.io import write_parquet
-from hevlib.params import ScreenParams
+from hevlib.params import DesignSpaceParams, ScreenParams
 from hevlib.pareto import select_designs
 from hevlib.report import build_summary
 from hevlib.validation import (
@@ -281,11 +281,23 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
     assert rec["design"]["fails"] == [] and rec["design"]["design_id"] in set(res.selected["design_id"])
     assert set(rec["design"]["by_cycle"]) == {"ftp", "hwfet", "us06"}
     assert [b["bag"] for b in rec["design"]["ftp_bags"]["prius"]] == [1, 2, 3]
+    # the model's noise from the eligible picks' twins, and the near-equivalents with what separates them
+    twins = pd.read_parquet("reports/validation_twins.parquet")
+    assert len(twins) == rec["eligible"] * rec["noise"]["twins"] and set(twins["vehicle"]) <= set(
+        res.selected["design_id"]
+    )
+    assert set(rec["noise"]["knee_share"]) == set(twins["vehicle"])
+    assert sum(rec["noise"]["knee_share"].values()) == pytest.approx(1.0)
+    for e in rec["equivalents"]:
+        assert e["knee_share"] >= rec["noise"]["min_share"] and e["design_id"] != rec["design"]["design_id"]
     assert Path("reports/explorer.html").stat().st_size > 1_000_000  # Plotly inlined
     summary = Path("reports/summary.md").read_text()
     assert summary.startswith(
         f"# hev-sizing: selection and validation summary\n\n## Build this\n\n**{rec['design']['design_id']}**"
     )
+    assert "**Within the model's noise.**" in summary and "### Across seeds" in summary
+    assert summary.index("### Across seeds") < summary.index("### ftp (headline cycle)")
+    assert "No robustness study on disk" in summary
     for png in ("improvement_ftp.png", "improvement_hwfet.png", "traces_ftp.png"):
         assert Path(f"reports/plots/validation/{png}").stat().st_size > 0
         assert f"plots/validation/{png}" in summary
@@ -301,3 +313,43 @@ def test_summary_says_so_when_nothing_passed_screening():
     assert res.summary["counts"]["picked"] == 0
     text = build_summary(res.summary, s, table, res.selected.to_pandas(), {})
     assert "No design passed the screening" in text and "`speed_dev_max`" in text
+
+
+def test_twins_stay_near_their_design_and_near_ties_become_equivalents():
+    """Twins move only the continuous variables, within the share of their ranges; a pick whose knee criteria
+    tie the recommended one's within that noise is listed as its equivalent, one far away is not."""
+    from hevlib.params import EquivalenceParams, ScreenParams, ValidateParams
+    from hevlib.validation import eligible_ids, recommendation, simulate_twins
+
+    space = DesignSpaceParams()
+    sel = pd.DataFrame(
+        [[50.0, 40.0, 15.0, 3.0, 30, 70, 30], [50.2, 40.0, 15.0, 3.0, 30, 70, 30], [41.0, 60.0, 15.0, 3.0, 60, 70, 30]],
+        columns=list(DESIGN_VARS),
+    )
+    sel.insert(0, "algo", ["oracle", "nsga3", "moga"])
+    sel.insert(0, "design_id", ["a", "b", "c"])
+    sel["rank"] = [1, 2, 3]
+    for o in OBJECTIVES:  # the sizing-cycle figures the reasons read (screen margins)
+        sel[f"sim_{o}"] = {"m_veh": 1100.0, "v_max": 150.0}.get(o, 0.1)
+    cycles = [_cycle("ftp")]
+    table = validation_table(FakeSimulator(), sel, cycles, np.array([43.0, 31.0, 15.0, 3.93, 25, 78, 30]))
+    table.loc[table["vehicle"] != "conventional", "t_0_100_s"] = 10.0 + table["p_mot_kw"].fillna(0) / 100
+    eq = EquivalenceParams(twins=6, share=0.01, draws=500, min_share=0.05, seed=3)
+    ids = eligible_ids(table, ["ftp"], ScreenParams())
+    assert ids == ["a", "b", "c"]
+    twins = simulate_twins(FakeSimulator(), sel, ids, cycles[0], space.space(), eq)
+    assert len(twins) == 18 and twins["twin"].tolist()[:6] == [1, 2, 3, 4, 5, 6]
+    moved = twins[list(DESIGN_VARS)].to_numpy() - np.repeat(sel[list(DESIGN_VARS)].to_numpy(), 6, axis=0)
+    span = space.space().upper - space.space().lower
+    assert np.all(np.abs(moved) <= 0.01 * span + 1e-12) and np.all(moved[:, 4:] == 0)  # integers kept
+    assert np.mean(np.abs(moved[:, :4]) > 0) > 0.9  # moved (but where the box clips them)
+    twins["t_0_100_s"] = 10.0 + twins["p_mot_kw"] / 100
+    rec = recommendation(table, sel, ["ftp"], ScreenParams(), space, twins, eq)
+    chosen = rec["design"]["design_id"]
+    assert chosen in {"a", "b"}  # a and b are one design to the model: 0.2 kW apart, far inside its noise
+    other = {"a": "b", "b": "a"}[chosen]
+    assert [e["design_id"] for e in rec["equivalents"]] == [other]
+    e = rec["equivalents"][0]
+    assert e["same_family"] and e["separated_by"] == [] and abs(e["vs_recommended"]["m_veh"]["pct"]) < 0.1
+    assert rec["noise"]["knee_share"][chosen] + e["knee_share"] + rec["noise"]["knee_share"]["c"] == pytest.approx(1)
+    assert rec["noise"]["sigma"]["m_veh"] > 0 and ValidateParams().equivalence.twins == 8

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from importlib import resources
 from pathlib import Path
 
@@ -36,10 +37,16 @@ def _num(v) -> float | None:
 
 
 def explorer_data(
-    merged: pd.DataFrame, baselines: dict[str, dict[str, float]], recommended: str | None, sizing_cycle: str
+    merged: pd.DataFrame,
+    baselines: dict[str, dict[str, float]],
+    recommended: str | None,
+    sizing_cycle: str,
+    equivalents: Sequence[str] = (),
 ) -> dict:
     """The page's data: axes (variables, then objectives, with units and sense), one row per merged design
-    (its sources, kept/picked/recommended flags and the values), and both baselines on the sizing cycle."""
+    (its sources, kept/picked/equivalent/recommended flags and the values), and both baselines on the sizing
+    cycle. ``equivalents``: the recommendation's near-equivalents (``recommendation.equivalents``)."""
+    equivalent = set(map(str, equivalents))
     axes = [{"name": v, "unit": UNITS[v], "kind": "variable", "sense": None} for v in DESIGN_VARS]
     axes += [
         {"name": k, "unit": UNITS[k], "kind": "objective", "sense": "max" if s < 0 else "min"}
@@ -56,6 +63,7 @@ def explorer_data(
                 "kept": bool(r.get("kept", False)),
                 "picked": bool(r.get("picked", False)),
                 "recommended": str(r["design_id"]) == recommended,
+                "equivalent": str(r["design_id"]) in equivalent,
                 "values": [_num(v) for v in values[i]],
             }
         )
@@ -72,6 +80,7 @@ def explorer_data(
         "rows": rows,
         "baselines": base,
         "recommended": recommended,
+        "equivalents": [str(e) for e in equivalents],
         "default_x": "m_veh",
         "default_y": "fc",
     }
@@ -84,7 +93,8 @@ def explorer_html(data: dict) -> str:
     intro = (
         f"{len(data['rows'])} designs from the fronts of {', '.join(data['sources'])}, simulated on the sizing cycle "
         f"({data['sizing_cycle']}); colours in the parallel coordinates: grey front, blue kept, orange picked, "
-        f"red recommended ({data['recommended'] or 'none'}), green the stock Prius. The conventional car has no "
+        f"red recommended ({data['recommended'] or 'none'}), purple its near-equivalents within the model's noise "
+        f"({', '.join(data['equivalents']) or 'none'}), green the stock Prius. The conventional car has no "
         "hybrid variables and appears in the scatter only."
     )
     page = template.replace("/*TITLE*/", f"sizing cycle {data['sizing_cycle']}").replace("/*INTRO*/", intro)

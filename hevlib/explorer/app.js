@@ -7,8 +7,9 @@
   var label = function (a) { return a.unit && a.unit !== "-" ? a.name + " [" + a.unit + "]" : a.name; };
   var rows = D.rows;                       // every design on a source's front (sizing cycle, simulated)
   var pcRows = rows.concat(D.baselines.filter(function (b) { return b.values.every(function (v) { return v !== null; }); }));
-  var STATUS = { front: 0, kept: 1, picked: 2, recommended: 3, baseline: 4 };
-  var COLOURS = ["#c8c8c8", "#6a9fd4", "#f28e2b", "#d62728", "#2ca02c"];
+  var STATUS = { front: 0, kept: 1, picked: 2, equivalent: 3, recommended: 4, baseline: 5 };
+  var STATUS_NAMES = ["front", "kept", "picked", "near-equivalent", "recommended"];
+  var COLOURS = ["#c8c8c8", "#6a9fd4", "#f28e2b", "#9467bd", "#d62728", "#2ca02c"];
   var pc = document.getElementById("parcoords");
   var sc = document.getElementById("scatter");
   var brushed = rows.slice();
@@ -16,6 +17,7 @@
   function status(r) {
     if (r.baseline) return STATUS.baseline;
     if (r.recommended) return STATUS.recommended;
+    if (r.equivalent) return STATUS.equivalent;
     if (r.picked) return STATUS.picked;
     return r.kept ? STATUS.kept : STATUS.front;
   }
@@ -72,9 +74,10 @@
     });
     if (brushed.length < rows.length) traces.push(points(brushed, "brushed", { size: 7, color: "#111", symbol: "circle-open" }));
     traces.push(points(rows.filter(function (r) { return r.picked; }), "picks", { size: 10, color: COLOURS[2], symbol: "circle-open", line: { width: 2 } }));
-    traces.push(points(rows.filter(function (r) { return r.recommended; }), "recommended", { size: 16, color: COLOURS[3], symbol: "star" }));
+    traces.push(points(rows.filter(function (r) { return r.equivalent; }), "near-equivalents", { size: 13, color: COLOURS[STATUS.equivalent], symbol: "star-open", line: { width: 2 } }));
+    traces.push(points(rows.filter(function (r) { return r.recommended; }), "recommended", { size: 16, color: COLOURS[STATUS.recommended], symbol: "star" }));
     D.baselines.forEach(function (b, i) {
-      traces.push(points([b], b.id, { size: 13, color: i ? "#555" : COLOURS[4], symbol: i ? "square" : "diamond" }));
+      traces.push(points([b], b.id, { size: 13, color: i ? "#555" : COLOURS[STATUS.baseline], symbol: i ? "square" : "diamond" }));
     });
     Plotly.react(sc, traces, {
       margin: { l: 70, r: 20, t: 20, b: 60 }, xaxis: { title: { text: label(D.axes[+xs.value]) } },
@@ -87,7 +90,7 @@
   function renderTable() {
     var head = "<tr><th>design</th><th>sources</th><th>status</th>" + D.axes.map(function (a) { return "<th>" + label(a) + "</th>"; }).join("") + "</tr>";
     var body = brushed.map(function (r) {
-      var st = ["front", "kept", "picked", "recommended"][status(r)];
+      var st = STATUS_NAMES[status(r)];
       return "<tr data-id=\"" + r.id + "\"><td>" + r.id + "</td><td>" + r.sources.join("+") + "</td><td>" + st + "</td>" +
         r.values.map(function (v) { return "<td>" + fmt(v) + "</td>"; }).join("") + "</tr>";
     }).join("");

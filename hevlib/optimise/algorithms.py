@@ -11,10 +11,8 @@ the algorithm returned that violate a constraint are dropped and counted.
 from __future__ import annotations
 
 import functools
-import sys
 import time
 from collections.abc import Callable
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -372,23 +370,6 @@ def moga(problem: Problem, settings: AlgoParams, progress=None, initial: np.ndar
 _WRAPPERS: dict[str, Callable[..., Front]] = {"nsga3": nsga3, "moead": moead, "moga": moga}
 
 
-@contextmanager
-def _torch_single_thread():
-    """Run torch on one thread while optimising, if torch is loaded: the optimisers call the surrogate on
-    a few hundred rows at a time, where thread hand-offs cost far more than the work (a 7-20-11 MLP on
-    200 rows: 0.07 ms on one thread, 7.5 ms on two on this shared 2-core machine)."""
-    torch = sys.modules.get("torch")
-    if torch is None:
-        yield
-        return
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(before)
-
-
 def optimise(
     problem: Problem,
     algo: str,
@@ -400,5 +381,4 @@ def optimise(
     ``progress(generation, n_gen)`` after each generation; ``initial``: start population (else random)."""
     if algo not in _WRAPPERS:
         raise ValueError(f"optimise: unknown algorithm {algo!r} (use one of {', '.join(ALGORITHMS)})")
-    with _torch_single_thread():
-        return _WRAPPERS[algo](problem, settings, progress, initial)
+    return _WRAPPERS[algo](problem, settings, progress, initial)

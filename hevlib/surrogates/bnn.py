@@ -279,7 +279,9 @@ class BayesRegMLP:
     # -------------------------------------------------------------------------------- persistence
     def save(self, path: str | Path) -> None:
         """Write the model (weights, scalings, hyperparameters, evidence state, training curve)."""
-        import torch
+        from hevlib.determinism import torch as pinned_torch
+
+        torch = pinned_torch()
 
         self._check_fitted()
 
@@ -309,7 +311,9 @@ class BayesRegMLP:
 
     @classmethod
     def load(cls, path: str | Path) -> BayesRegMLP:
-        import torch
+        from hevlib.determinism import torch as pinned_torch
+
+        torch = pinned_torch()
 
         path = Path(path)
         if not path.exists():

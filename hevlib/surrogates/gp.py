@@ -130,8 +130,9 @@ class GaussianProcesses:
 def _fit_hyper(x: np.ndarray, T: np.ndarray, max_iter: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Length scales (m, d), output scales (m,) and noise variances (m,) maximising each column's log
     marginal likelihood plus log-normal priors on the length scales; the m GPs in one batched graph."""
-    import torch
+    from hevlib.determinism import torch as pinned_torch
 
+    torch = pinned_torch()  # one thread, ATen's default capability: the same rounding on every CPU
     n, d = x.shape
     m = T.shape[1]
     xt = torch.as_tensor(x, dtype=torch.float64)

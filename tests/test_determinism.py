@@ -1,0 +1,125 @@
+"""The pins of ``hevlib.determinism``: the numeric primitives the project uses give the same bytes under two
+emulated CPU kinds once pinned, and different bytes without the pins (so the emulation is real); the environment
+is merged, not clobbered; the ``hev`` entry point runs every command pinned."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+from conftest import CPU_KINDS
+
+from hevlib import determinism
+
+#: Hashes of the primitives whose rounding depends on the CPU: numpy's transcendental functions and sort, BLAS and
+#: LAPACK through numpy and scipy, torch (MKL, ATen) and numba's compiled code (which calls glibc's libm).
+PROBE = r"""
+import sys
+from hevlib import determinism
+if "pin" in sys.argv:
+    determinism.ensure_pinned(sys.argv)
+import hashlib, json, math
+import numpy as np, scipy.linalg
+import numba
+
+def h(a):
+    return hashlib.sha256(np.ascontiguousarray(a).tobytes()).hexdigest()[:12]
+
+rng = np.random.default_rng(0)
+x = rng.uniform(-3.0, 3.0, 100_003)
+p = rng.uniform(0.01, 5.0, 100_003)
+A = rng.standard_normal((22, 300, 73))
+M = A.transpose(0, 2, 1) @ A + np.eye(73)
+out = {
+    "tanh": h(np.tanh(x)), "exp": h(np.exp(x)), "log": h(np.log(p)), "power": h(np.power(p, 0.3)),
+    "argsort_ties": h(np.argsort(np.round(x, 1))), "matmul": h(M), "dot": h(x @ x),
+    "solve": h(np.linalg.solve(M, A[:, :73, :1])), "inv": h(np.linalg.inv(M)), "eigvalsh": h(np.linalg.eigvalsh(M)),
+    "lstsq": h(np.linalg.lstsq(A[0], x[:300], rcond=None)[0]), "scipy_cho": h(scipy.linalg.cho_factor(M[0])[0]),
+    "math_pow": h(np.array([math.pow(v, 0.3) for v in p[:20000]])),
+}
+
+@numba.njit(cache=False)
+def kernel(x, p):
+    o = np.empty_like(x)
+    for i in range(x.size):
+        o[i] = math.exp(x[i]) * p[i] ** 0.3 + math.tanh(x[i]) + math.log(p[i])
+    return o
+
+out["numba"] = h(kernel(x, p))
+torch = determinism.torch()
+t = torch.as_tensor(A)
+out["torch_mm"] = h((t.transpose(1, 2) @ t).numpy())
+out["torch_cdist"] = h(torch.cdist(t[:, :60, :7], t[:, :60, :7]).numpy())
+out["torch_cholesky"] = h(torch.linalg.cholesky(torch.as_tensor(M)).numpy())
+out["torch_sum_exp"] = h(torch.exp(torch.as_tensor(x)).sum().numpy())
+out["problems"] = determinism.check()
+print(json.dumps(out))
+"""
+
+
+def _clean_env() -> dict[str, str]:
+    """This process's environment without anything a kind emulates or the pins set (tests import hevlib, which
+    pins in process)."""
+    drop = {n for kind in CPU_KINDS.values() for n in kind} | set(determinism.PINNED) | {"HEV_PINNED_EXEC"}
+    return {k: v for k, v in os.environ.items() if k not in drop}
+
+
+def _probe(script, kind: dict[str, str], pinned: bool) -> dict:
+    env = {**_clean_env(), **kind}
+    if not pinned:
+        env[determinism.OFF_SWITCH] = "1"
+    args = [sys.executable, str(script), *(["pin"] if pinned else [])]
+    out = subprocess.run(args, env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-3000:]
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def probes(tmp_path_factory) -> dict[tuple[str, bool], dict]:
+    script = tmp_path_factory.mktemp("probe") / "probe.py"
+    script.write_text(PROBE)
+    return {
+        (name, pinned): _probe(script, kind, pinned) for name, kind in CPU_KINDS.items() for pinned in (True, False)
+    }
+
+
+def test_pinned_primitives_give_the_same_bytes_on_both_cpu_kinds(probes):
+    a, b = (probes[(name, True)] for name in CPU_KINDS)
+    assert a["problems"] == [] and b["problems"] == []
+    assert {k for k in a if a[k] != b[k]} == set()
+
+
+def test_without_the_pins_the_emulated_kinds_round_differently(probes):
+    """The emulation is real: numpy's kernels, BLAS, LAPACK under torch and glibc's libm (numba's kernels call it)
+    each change some bytes unpinned."""
+    a, b = (probes[(name, False)] for name in CPU_KINDS)
+    differ = {k for k in a if k != "problems" and a[k] != b[k]}
+    assert {"exp", "log", "power", "argsort_ties", "matmul", "solve", "math_pow", "numba", "torch_cholesky"} <= differ
+    assert probes[("host", False)]["problems"] == []  # switched off: nothing is claimed
+
+
+def test_pinned_environment_keeps_other_glibc_tunables_and_is_idempotent():
+    env = {"GLIBC_TUNABLES": "glibc.malloc.check=3:glibc.cpu.hwcaps=-AVX2", "OPENBLAS_NUM_THREADS": "8"}
+    pinned = determinism.pinned_environ(env)
+    assert pinned["GLIBC_TUNABLES"] == f"glibc.malloc.check=3:{determinism.GLIBC_HWCAPS}"
+    assert pinned["OPENBLAS_NUM_THREADS"] == "1" and pinned["PYTHONHASHSEED"] == "1"
+    assert determinism.pinned_environ(pinned) == pinned and determinism.is_pinned(pinned)
+    assert not determinism.is_pinned(env)
+    off = {**env, determinism.OFF_SWITCH: "1"}
+    assert determinism.pinned_environ(off) == off and determinism.is_pinned(off)
+
+
+def test_the_hev_entry_point_runs_every_command_pinned():
+    """`hev` re-executes itself under the pins: `hev platform` sees every one in effect (glibc's and the hash
+    seed's included, which no in-process setting can give) and says so."""
+    hev = os.path.join(os.path.dirname(sys.executable), "hev")
+    out = subprocess.run([hev, "platform"], env=_clean_env(), capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "every pin in effect" in out.stdout and f"kernel {determinism.OPENBLAS_CORE}" in out.stdout
+    off = subprocess.run(
+        [hev, "platform"], env={**_clean_env(), determinism.OFF_SWITCH: "1"}, capture_output=True, text=True
+    )
+    assert off.returncode == 0 and "off" in off.stdout
