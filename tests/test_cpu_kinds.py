@@ -47,8 +47,29 @@ BENCHMARK = {
 BENCHMARK_SOURCES = ("parego", "nsga3")
 #: The seed-spread study at its smallest: replicate 0 (the params' seeds) and one more.
 ROBUSTNESS = {"robustness.seeds": 2}
-#: Everything the runs write that a user keeps (logs/ holds wall times and is left out).
+#: Everything the runs write that a user keeps (logs/, the replicates' included, holds wall times: left out).
 OUTPUTS = ("data", "models", "reports")
+
+
+#: Parquet metadata that records how long a run took (a benchmark run's ``hev.wall_s``): a measurement, not a
+#: result, so the digest of such a file is its bytes rewritten without it (every other byte still compared).
+TIMING_METADATA = (b"hev.wall_s",)
+
+
+def _digest(path: Path) -> str:
+    if path.suffix == ".parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        meta = pq.read_schema(path).metadata or {}
+        if any(k in meta for k in TIMING_METADATA):
+            table = pq.read_table(path)
+            table = table.replace_schema_metadata({k: v for k, v in meta.items() if k not in TIMING_METADATA})
+            sink = pa.BufferOutputStream()
+            with pa.ipc.new_stream(sink, table.schema) as writer:
+                writer.write_table(table)
+            return "timing-free " + hashlib.sha256(sink.getvalue().to_pybytes()).hexdigest()
+    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def _digests(base: Path) -> dict[str, str]:
@@ -56,8 +77,8 @@ def _digests(base: Path) -> dict[str, str]:
     for top in OUTPUTS:
         for f in sorted((base / top).rglob("*")):
             rel = f.relative_to(base)
-            if f.is_file() and rel.parts[:2] != ("data", "raw"):
-                out[str(rel)] = hashlib.sha256(f.read_bytes()).hexdigest()
+            if f.is_file() and rel.parts[:2] != ("data", "raw") and "logs" not in rel.parts:
+                out[str(rel)] = _digest(f)
     return out
 
 
