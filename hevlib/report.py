@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from hevlib.design import DESIGN_VARS, UNITS
+from hevlib.recommend import FAMILY_SHARE
 from hevlib.validation import ALL, BASELINE_ALGO, IMPROVEMENT_RESPONSES, SOC_POINTS
 
 #: The study's headline against the conventional car on FTP (SPEC section 1).
@@ -302,7 +303,7 @@ def _equivalents_lines(rec: Mapping) -> list[str]:
             *[e["criteria"][c] for c in crit],
             *[_round(e["vs_recommended"][c]["pct"]) for c in crit],
             "; ".join(f"{s['variable']} {_fmt(s['recommended'])} → {_fmt(s['this'])}" for s in e["separated_by"])
-            or "nothing beyond 5 % of a range (same family)",
+            or f"nothing beyond {100 * FAMILY_SHARE:g} % of a range (same family)",
         ]
         for e in eq
     ]
@@ -317,7 +318,7 @@ def _equivalents_lines(rec: Mapping) -> list[str]:
                 "knee in % of draws",
                 *[_labelled(c) for c in crit],
                 *[f"Δ {c} %" for c in crit],
-                "separated by (variables more than 5 % of their range apart)",
+                f"separated by (variables more than {100 * FAMILY_SHARE:g} % of their range apart)",
             ],
             rows,
         ),

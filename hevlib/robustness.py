@@ -106,21 +106,11 @@ PRESENTATION = ("hevlib/plots/", "hevlib/explorer/", "hevlib/report.py", "hevlib
 def chain_code_hash(root: Path) -> str:
     """Short hash of the code that computes a replicate's result: :data:`RUN_MODULES` with everything they import
     but :data:`PRESENTATION`, so that an edit to a plot, a page or a sentence does not run every replicate again."""
-    import hashlib as _hashlib
-
-    from hevlib.codedeps import import_closure
+    from hevlib.codedeps import closure_hash, import_closure
 
     root = Path(root)
-
-    def shown(p: Path) -> bool:
-        return Path(p).resolve().relative_to(root.resolve()).as_posix().startswith(PRESENTATION)
-
-    paths = {p for m in RUN_MODULES for p in import_closure(root, m).values() if not shown(p)}
-    h = _hashlib.sha256()
-    for rel, path in sorted((p.relative_to(root).as_posix(), p) for p in paths):
-        h.update(rel.encode())
-        h.update(path.read_bytes())
-    return h.hexdigest()[:16]
+    files = {p.relative_to(root).as_posix() for m in RUN_MODULES for p in import_closure(root, m).values()}
+    return closure_hash(root, (), [f for f in files if not f.startswith(PRESENTATION)])
 
 
 def collect(folder: Path, replicate: int, seeds: Mapping[str, int], fingerprint_: str) -> dict:
@@ -189,15 +179,13 @@ def summarise(results: Sequence[Mapping], lower: np.ndarray, upper: np.ndarray) 
         return same_family(X, x, lower, upper) & np.all(np.isfinite(X), axis=1)
 
     default = results[0]
-    answer_set = [] if recs[0] is None else [recs[0], *default["equivalents"]]
-    answer_X = np.array([[d["design"][v] for v in DESIGN_VARS] for d in answer_set]).reshape(-1, len(DESIGN_VARS))
     designs = []
     for i, (r, d) in enumerate(zip(results, recs, strict=True)):
         if d is None:
             continue
         fam = family_of(X[i])
         exact = np.all(X == X[i], axis=1)
-        in_default = bool(any(same_family(answer_X, X[i], lower, upper))) if len(answer_X) else False
+        as_default = _as_default(X[i], recs[0], default["equivalents"], lower, upper)
         designs.append(
             {
                 "replicate": r["replicate"],
@@ -205,8 +193,8 @@ def summarise(results: Sequence[Mapping], lower: np.ndarray, upper: np.ndarray) 
                 "same_design_replicates": [results[j]["replicate"] for j in np.flatnonzero(exact)],
                 "family_replicates": [results[j]["replicate"] for j in np.flatnonzero(fam)],
                 "family_share": float(fam.sum() / n),
-                "default_answer": in_default,
-                "default_answer_as": _as_default(X[i], recs[0], default["equivalents"], lower, upper),
+                "default_answer": as_default is not None,
+                "default_answer_as": as_default,
             }
         )
     modal = max(designs, key=lambda d: (len(d["family_replicates"]), -d["replicate"])) if designs else None
