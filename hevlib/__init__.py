@@ -13,7 +13,7 @@ from hevlib import determinism as _determinism
 
 __version__ = "0.1.0"
 #: Bumped whenever the simulator's physics change: stored with every simulated artifact.
-MODEL_VERSION = "sim-4"
+MODEL_VERSION = "sim-5"
 
 #: Modules compiled by numba. Its on-disk cache keys a kernel on its own file only, not on the
 #: modules it calls, so the cache lives in a folder named after a hash of all of them: editing any

@@ -68,6 +68,7 @@ class ConventionalParams(_Strict):
     p_eng_kw: Annotated[float, Field(gt=10, le=300)] = 70.0
     test_mass_kg: Annotated[float, Field(gt=500, le=4000)] = 1195.0
     gear_ratios: list[Pos] = [13.195, 7.3486, 4.9126, 3.4916, 2.5984]
+    shift_logic: Literal["load", "speed"] = "load"
     upshift_kmh: list[Pos] = [24.0, 40.0, 64.0, 75.0]
     idle_speed_rpm: Annotated[float, Field(gt=300, le=2000)] = 800.0
 

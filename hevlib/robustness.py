@@ -99,8 +99,15 @@ def settings_fingerprint(params_path: str | Path) -> tuple[dict, str]:
 
 
 #: Modules of the chain that only draw or word what a replicate's ``result.json`` does not hold (plots, the
-#: explorer, ``summary.md``, this study's own summary): left out of :func:`chain_code_hash`.
-PRESENTATION = ("hevlib/plots/", "hevlib/explorer/", "hevlib/report.py", "hevlib/robustness.py")
+#: explorer, ``summary.md``, this study's own summary) or keep books (the code-dependency lists): left out of
+#: :func:`chain_code_hash`.
+PRESENTATION = (
+    "hevlib/plots/",
+    "hevlib/explorer/",
+    "hevlib/report.py",
+    "hevlib/robustness.py",
+    "hevlib/codedeps.py",
+)
 
 
 def chain_code_hash(root: Path) -> str:

@@ -371,10 +371,12 @@ def _finite(v) -> float | None:
     return v if np.isfinite(v) else None
 
 
-def eligibility(table: pd.DataFrame, cycles: Sequence[str], screen) -> tuple[pd.DataFrame, np.ndarray, list, object]:
+def eligibility(
+    table: pd.DataFrame, cycles: Sequence[str], screen
+) -> tuple[pd.DataFrame, np.ndarray, list, object, np.ndarray]:
     """The picks on the headline cycle (``cycles[0]``), which of them may be recommended (they meet every
-    validation cycle, and reach the highway speed when that rule is on), the failed cycles by design and the
-    highway rule."""
+    validation cycle, and reach the highway speed when that rule is on), the failed cycles by design, the
+    highway rule and which picks reach its speed."""
     from hevlib.screen import min_v_max
 
     designs, _ = split_cycle(table, cycles[0])
@@ -384,12 +386,12 @@ def eligibility(table: pd.DataFrame, cycles: Sequence[str], screen) -> tuple[pd.
     meets_all = ~ids.isin(list(fails)).to_numpy()
     fast_enough = highway.mask({"v_max": designs["v_max"].to_numpy(dtype=float)})
     eligible = meets_all & (fast_enough if highway.enabled else True)
-    return designs, np.asarray(eligible, dtype=bool), fails, highway
+    return designs, np.asarray(eligible, dtype=bool), fails, highway, fast_enough
 
 
 def eligible_ids(table: pd.DataFrame, cycles: Sequence[str], screen) -> list[str]:
     """Ids of the picks the recommendation chooses among (:func:`eligibility`)."""
-    designs, eligible, _, _ = eligibility(table, cycles, screen)
+    designs, eligible, *_ = eligibility(table, cycles, screen)
     return designs["vehicle"].astype(str)[eligible].tolist()
 
 
@@ -441,7 +443,7 @@ def twins_schema() -> pa.Schema:
 def _equivalents(designs: pd.DataFrame, pool: np.ndarray, chosen: str, twins: pd.DataFrame, by_id, space, settings):
     """``recommendation.noise`` and ``recommendation.equivalents`` (hevlib/recommend.py) for the designs of the
     ``pool`` rows of ``designs`` (headline cycle), each with its rows of ``twins``."""
-    from hevlib.recommend import FAMILY_SHARE, KNEE_CRITERIA, knee_shares, minimisation, noise_spread, separation
+    from hevlib.recommend import KNEE_CRITERIA, knee_shares, minimisation, noise_spread, separation
 
     idx = np.flatnonzero(pool)
     ids = designs["vehicle"].astype(str).to_numpy()[idx]
@@ -482,7 +484,8 @@ def _equivalents(designs: pd.DataFrame, pool: np.ndarray, chosen: str, twins: pd
     )
     for i in order:
         name = str(ids[i])
-        x_rec, x = by_id[chosen], by_id[name]
+        x = by_id[name]
+        separated_by = separation(_plain(by_id[chosen]), _plain(x), space)  # beyond a family's share of a range
         out.append(
             {
                 "design_id": name,
@@ -497,8 +500,8 @@ def _equivalents(designs: pd.DataFrame, pool: np.ndarray, chosen: str, twins: pd
                     }
                     for j, c in enumerate(KNEE_CRITERIA)
                 },
-                "separated_by": separation(_plain(x_rec), _plain(x), space),
-                "same_family": not separation(_plain(x_rec), _plain(x), space, FAMILY_SHARE),
+                "separated_by": separated_by,
+                "same_family": not separated_by,
             }
         )
     return noise, out
@@ -523,9 +526,8 @@ def recommendation(
     from hevlib.screen import screening_rules
 
     head = cycles[0]
-    designs, eligible, fails, highway = eligibility(table, cycles, screen)
+    designs, eligible, fails, highway, fast_enough = eligibility(table, cycles, screen)
     ids = designs["vehicle"].astype(str)
-    fast_enough = highway.mask({"v_max": designs["v_max"].to_numpy(dtype=float)})
     choice = recommend(designs, eligible)
     rules = screening_rules(screen)
     by_id = {str(r["design_id"]): r for _, r in selected.iterrows()}

@@ -135,11 +135,7 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     typer.echo(
         f"validate: {summary['counts']['picked']} picks on {', '.join(names)}; recommended "
         f"{best if rec['design'] is not None else 'none'}"
-        + (
-            f" (near-equivalents: {', '.join(e['design_id'] for e in rec['equivalents'])})"
-            if rec["equivalents"]
-            else ""
-        )
+        + (f" (near-equivalents: {', '.join(equivalents)})" if equivalents else "")
         + f" -> wrote {TABLE}, {METRICS}, {HEADLINE}, {ANSWER}, "
         f"{SUMMARY}, {EXPLORER}"
     )

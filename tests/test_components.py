@@ -45,11 +45,42 @@ def test_engine_maps_cover_zero_to_full_load_and_keep_source_values(lib, field, 
     src_t = np.array(raw["torque_axis_nm"])
     cols = np.searchsorted(eng.torque_nm, src_t)
     np.testing.assert_array_equal(eng.torque_nm[cols], src_t)
+    at_or_below = src_t[None, :] <= eng.max_torque_nm[:, None] * (1 + 1e-9)
     for key in ("fuel", "hc", "co", "nox"):
-        np.testing.assert_array_equal(getattr(eng, f"{key}_g_s")[:, cols], raw[f"{key}_map_g_per_s"])
+        kept = getattr(eng, f"{key}_g_s")[:, cols]
+        np.testing.assert_array_equal(kept[at_or_below], np.array(raw[f"{key}_map_g_per_s"])[at_or_below])
     # added columns continue each row linearly (Willans line), never negative
     fuel = eng.fuel_g_s
     assert np.all(fuel >= 0) and np.all(fuel[:, 0] > 0)
+
+
+@pytest.mark.parametrize("name", ["FC_PRIUS_JPN", "FC_SI63_emis"])
+def test_engine_maps_are_never_read_above_full_load(raw, tmp_path, name):
+    """Poison every source value above its row's full-load torque: the loaded maps, the kernels' uniform
+    tables and every lookup at or below full load stay exactly as they were, so nothing above the curve
+    is read; and the continuation above full load never beats the row's best efficiency at or below it."""
+    from hevlib.sim.vehicles import engine_arrays
+
+    src = _raw(raw, f"{name}.yaml")
+    t_src = np.array(src["torque_axis_nm"])
+    above = t_src[None, :] > np.array(src["max_torque_nm"])[:, None] * (1 + 1e-9)
+    assert above.any()  # both files have values above full load
+    poisoned = dict(src)
+    for key in ("fuel", "hc", "co", "nox"):
+        m = np.array(src[f"{key}_map_g_per_s"], dtype=float)
+        m[above] = 1e3 * (1.0 + m[above])
+        poisoned[f"{key}_map_g_per_s"] = m.tolist()
+    (tmp_path / f"{name}.yaml").write_text(yaml.safe_dump(poisoned))
+    clean, dirty = load_engine(raw / "components" / f"{name}.yaml"), load_engine(tmp_path / f"{name}.yaml")
+    for key in ("fuel", "hc", "co", "nox"):
+        np.testing.assert_array_equal(getattr(clean, f"{key}_g_s"), getattr(dirty, f"{key}_g_s"))
+    for a, b in zip(engine_arrays(clean), engine_arrays(dirty), strict=True):
+        np.testing.assert_array_equal(a, b)
+    # efficiency at the full-load curve (between grid speeds too) never exceeds the best below it
+    w = np.linspace(clean.speed_rad_s[0], clean.speed_rad_s[-1], 400)
+    t_fl = clean.max_torque_at(w)
+    eta_fl = w * t_fl / (clean.rate_g_s("fuel", w, t_fl) * clean.lhv_j_per_g)
+    assert eta_fl.max() <= 0.40  # the source's best at or below full load is 0.385 (Prius), 0.341 (63 kW)
 
 
 def test_prius_zero_torque_fuel_is_the_willans_intercept(lib):

@@ -108,7 +108,7 @@ class KernelVehicle(NamedTuple):
     G: MachineArrays
     B: BatteryArrays
     ratios: np.ndarray  # conventional gearbox: overall ratio of each gear ...
-    upshift_kmh: np.ndarray  # ... and the upshift schedule
+    shift: conv.ShiftLogic  # ... and its shift logic
     cd: conv.ConvDesign
     X: th_.ThermalConfig
 
@@ -265,17 +265,20 @@ def _engine_step(o, temp, k, q, X, running, w_e, t_e, s_eng, E, c, v_avg, t, tr,
     """One key-on step of the engine at (``w_e``, ``t_e``): fuel and engine-out rates from the hot maps times
     the cold-engine factors of the block temperature (none while it does not run), its energy terms, then
     the thermal nodes and the tailpipe (:func:`_exhaust`). Returns the fuel rate, g/s."""
-    fuel = hc = co = nox = 0.0
+    fuel = hot = hc = co = nox = 0.0
     if running:
-        fuel, hc, co, nox = rates(w_e, max(t_e, 0.0), s_eng, E)
+        hot, hc, co, nox = rates(w_e, max(t_e, 0.0), s_eng, E)
         c_f, c_hc, c_co, c_nox = th_.cold_factors(temp[th_.N_BLOCK], X)
-        fuel, hc, co, nox = fuel * c_f, hc * c_hc, co * c_co, nox * c_nox
+        fuel, hc, co, nox = hot * c_f, hc * c_hc, co * c_co, nox * c_nox
     p_shaft = t_e * w_e
     _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, c.dt)
     if running:
         o[L.O_E_SHAFT_FUELLED] += p_shaft * c.dt
-    q_waste = fuel * c.lhv_j_per_g - p_shaft
-    _exhaust(o, temp, k, q, X, ON, fuel, q_waste, w_e, hc, co, nox, v_avg, c.dt, t, tr, record)
+        o[L.O_E_FUEL_COLD] += (fuel - hot) * c.lhv_j_per_g * c.dt
+    # ADVISOR's 'fc temp' takes the waste heat and the exhaust flow from the hot map's fuel: a cold engine's
+    # surplus fuel leaves unburnt (the extra HC and CO of the cold factors) and heats nothing
+    q_waste = hot * c.lhv_j_per_g - p_shaft
+    _exhaust(o, temp, k, q, X, ON, hot, q_waste, w_e, hc, co, nox, v_avg, c.dt, t, tr, record)
     return fuel
 
 
@@ -418,13 +421,13 @@ def _limited_split(
 
 
 @njit(cache=True)
-def _limited_conv(v0, v_req, v_cap, f_cmd, ratio, sn, cs, dt, st, d, ch, E):
-    """As :func:`_limited_split` for the conventional car in a fixed gear (fixed-point start)."""
+def _limited_conv(v0, v_req, v_cap, f_cmd, ratio, slip, sn, cs, dt, st, d, ch, E):
+    """As :func:`_limited_split` for the conventional car in a fixed gear and clutch state (fixed-point start)."""
     v_a = v_req
     h_a = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_a
     v_b = min(max(v_a + h_a, 0.0), v_cap)
     for _ in range(12):
-        st = conv.dispatch(v_b, f_cmd, ratio, d, E)
+        st = conv.dispatch(v_b, f_cmd, ratio, slip, d, E)
         h_b = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_b
         if abs(h_b) <= SPEED_TOL:
             break
@@ -674,15 +677,18 @@ def drive_hybrid(veh: KernelVehicle, cyc: KernelCycle, t_init, out, traces, rec_
 def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
     # the caller's arrays through views that are not reference-counted (borrow.py)
     veh, cyc, t_init, o, tr, scratch = borrowed((veh, cyc, t_init, o, tr, scratch))
-    row, c, ratios, upshift_kmh, d, E, X = veh.rows[i], veh.c, veh.ratios, veh.upshift_kmh, veh.cd, veh.E, veh.X
+    row, c, ratios, S, d, E, X = veh.rows[i], veh.c, veh.ratios, veh.shift, veh.cd, veh.E, veh.X
     v_ref, grade, sin_g, cos_g, key_on = cyc
     m = row[R_MASS]
+    n_gears = ratios.shape[0]
     m_free = conventional_equivalent_mass_kg(m, 0.0, False, d.s_eng, c)  # clutch open
     m_prev = m_free
     dt = c.dt
     v_lim = d.w_e_max * d.r / ratios[-1]
     v = 0.0
     n = v_ref.shape[0]
+    gear, g_1, g_2 = 0, 0, 0  # the gear held and those of the two steps before it (ADVISOR's downshift guard)
+    clutch = conv.OPEN
     k_th, temp, q_th = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o, scratch)
     for t in range(n - 1):
         v0 = v
@@ -700,33 +706,36 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
         ch = chassis(m, m_free, c)
         f_aero, f_roll, f_grade, f_axle = road_force(v_req, sn, cs, ch)
         f_road = f_aero + f_roll + f_grade + f_axle
-        f_req = 0.0 if stationary else ch.m_eff * (v_tgt - v0) / dt + f_road
-        g0 = conv.scheduled_gear(v0 * 3.6, upshift_kmh)
-        while g0 > 0 and v_req / d.r * ratios[g0] < d.w_idle and f_req > 0.0:
-            g0 -= 1  # never lug below idle in a traction step
-        gear = g0
-        # equivalent mass of the gear in use: the engine is reflected while the clutch is closed (traction
-        # above the launch speed); the gear is chosen on it, and the mass re-taken once for a kick-down
-        for _ in range(2):
-            engaged = f_req > 0.0 and conv.clutch_closed(v_req, ratios[gear], d)
-            m_eff = conventional_equivalent_mass_kg(m, ratios[gear], engaged, d.s_eng, c)
-            ch = chassis(m, m_eff, c)
-            f_try = 0.0 if stationary else m_eff * (v_tgt - v0) / dt + f_road
-            if engaged and f_try <= 0.0:
-                ch = chassis(m, m_free, c)  # the reflected engine would turn traction into braking
-                f_try = 0.0 if stationary else m_free * (v_tgt - v0) / dt + f_road
-            f_cmd = min(f_try, adhesion_limit(sn, cs, f_road, ch))
-            g_best = conv.best_gear(v_req, f_cmd, g0, ratios, d, E) if f_cmd > 0.0 else g0
-            if g_best == gear:
-                break
-            gear = g_best
-        f_req = f_try
-        if ch.m_eff != m_prev:
+        # what the step asks of the driveline, the engine's own inertia aside (ADVISOR adds it in the engine)
+        f_ask = 0.0 if stationary else m_free * (v_tgt - v0) / dt + f_road
+        f_grip = adhesion_limit(sn, cs, f_road, ch)
+        # ---- gear: ADVISOR's load-based logic in the gear held, or the speed table
+        if S.load_based:
+            load = 1.0 if f_ask > f_grip else conv.engine_load(v_req, f_ask, ratios[gear], d, E)
+            w_held = v_req / d.r * ratios[gear]
+            new = conv.next_gear(gear, w_held, load, not (gear > g_1 or gear > g_2), S, n_gears)
+        else:
+            new = min(conv.scheduled_gear(v0 * 3.6, S.upshift_kmh), n_gears - 1)
+        g_2, g_1, gear = g_1, gear, new
+        ratio = ratios[gear]
+        # ---- clutch, on the torque asked of it at the gearbox input
+        clutch = conv.clutch_state(conv.input_torque(v_req, f_ask, ratio, d), v_req / d.r * ratio, clutch, d)
+        m_eff = conventional_equivalent_mass_kg(m, ratio, clutch == conv.CLOSED, d.s_eng, c)
+        ch = chassis(m, m_eff, c)
+        f_req = 0.0 if stationary else m_eff * (v_tgt - v0) / dt + f_road
+        if m_eff != m_prev:
             # clutch closing or opening, or a shift: the engine's share of the kinetic energy jumps; the
             # clutch slip that syncs it dissipates (or, rev-matching a downshift, supplies) the difference
-            o[L.O_E_LOSS_CLUTCH] += 0.5 * (m_prev - ch.m_eff) * v0 * v0
-            m_prev = ch.m_eff
-        st = conv.dispatch(v_req, f_cmd, ratios[gear], d, E)
+            o[L.O_E_LOSS_CLUTCH] += 0.5 * (m_prev - m_eff) * v0 * v0
+            m_prev = m_eff
+        f_cmd = min(f_req, f_grip)
+        slip = clutch == conv.SLIP
+        if clutch == conv.OPEN:
+            st = conv.open_state(d)
+        else:
+            # traction as asked; of a braking request the driveline is asked the wheel file's share
+            f_dl = f_cmd if f_req > 0.0 else driveline_brake_share(v_req, c) * f_req
+            st = conv.dispatch(v_req, f_dl, ratio, slip, d, E)
         v_disp = v_req
         f_brake = 0.0
         limited = not stationary and _falls_short(st.f_del, f_req)
@@ -734,17 +743,25 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
             v_avg = 0.0
         elif limited:
             o[L.O_N_LIMITED] += 1.0
-            st, v_disp, v_avg = _limited_conv(v0, v_req, v_req, f_cmd, ratios[gear], sn, cs, dt, st, d, ch, E)
+            if clutch == conv.OPEN:
+                v_avg = mean_speed_for_force(v0, 0.0, sn, cs, dt, ch)  # coasting with the clutch open
+                v_disp = v_avg
+            else:
+                st, v_disp, v_avg = _limited_conv(v0, v_req, v_req, f_cmd, ratio, slip, sn, cs, dt, st, d, ch, E)
         else:
             v_avg = v_req
             f_brake = f_req - st.f_del
         v_next = max(2.0 * v_avg - v0, 0.0)
-        fuel = _engine_step(o, temp, k_th, q_th, X, True, st.w_e, st.t_e, d.s_eng, E, c, v_avg, t, tr, record)
-        o[L.O_E_ACC] += d.p_acc_w * dt
+        running = clutch != conv.OPEN or d.idle_allowed
+        fuel = _engine_step(o, temp, k_th, q_th, X, running, st.w_e, st.t_e, d.s_eng, E, c, v_avg, t, tr, record)
+        if running:
+            o[L.O_E_ACC] += d.p_acc_w * dt
+            o[L.O_ENG_ON_STEPS] += 1.0
+        else:
+            o[L.O_E_ACC_UNMET] += d.p_acc_w * dt  # ADVISOR switches the accessories off with the engine
         o[L.O_E_LOSS_GB] += st.loss_gb_w * dt
         o[L.O_E_LOSS_CLUTCH] += st.loss_clutch_w * dt
         _book_wheel(o, st.f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch)
-        o[L.O_ENG_ON_STEPS] += 1.0
         a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt, c.off_trace_mps)
         if _over(st.w_e, d.w_e_max) or _over(st.t_e, max_torque(st.w_e, d.s_eng, E)):
             o[L.O_LIMIT_VIOLATIONS] += 1.0
@@ -754,10 +771,10 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
             tr[t + 1, L.T_W_E] = st.w_e
             tr[t + 1, L.T_T_E] = st.t_e
             tr[t + 1, L.T_FUEL] = fuel
-            tr[t + 1, L.T_ENG_ON] = 1.0
+            tr[t + 1, L.T_ENG_ON] = 1.0 if running else 0.0
             tr[t + 1, L.T_F_PT] = st.f_del
             tr[t + 1, L.T_F_BRK] = f_brake
-            tr[t + 1, L.T_GEAR] = gear + 1.0 if st.engaged else 0.0
+            tr[t + 1, L.T_GEAR] = gear + 1.0 if clutch != conv.OPEN else 0.0
             tr[t + 1, L.T_A_REQ] = a_req
             tr[t + 1, L.T_A_ACH] = (v_next - v0) / dt
             tr[t + 1, L.T_T_E_MAX] = max_torque(st.w_e, d.s_eng, E)

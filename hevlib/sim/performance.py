@@ -49,9 +49,9 @@ def _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G):
 def _conv_gear(v, ratios, d, ch, E):
     """(wheel force command, best gear, its state) of the conventional car at speed ``v``."""
     f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
-    g_best, st_best = 0, conv.dispatch(v, f_cmd, ratios[0], d, E)
+    g_best, st_best = 0, conv.dispatch(v, f_cmd, ratios[0], not conv.clutch_closed(v, ratios[0], d), d, E)
     for g in range(1, ratios.shape[0]):
-        st = conv.dispatch(v, f_cmd, ratios[g], d, E)
+        st = conv.dispatch(v, f_cmd, ratios[g], not conv.clutch_closed(v, ratios[g], d), d, E)
         if st.f_del > st_best.f_del:
             g_best, st_best = g, st
     return f_cmd, g_best, st_best
@@ -98,10 +98,12 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
             f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
             v_avg = 0.0
             for g in range(ratios.shape[0]):
-                st_c = conv.dispatch(v, f_cmd, ratios[g], cd, E)
                 engaged = conv.clutch_closed(v, ratios[g], cd)  # the engine is reflected
+                st_c = conv.dispatch(v, f_cmd, ratios[g], not engaged, cd, E)
                 ch_g = chassis(m, conventional_equivalent_mass_kg(m, ratios[g], engaged, cd.s_eng, c), c)
-                v_avg = max(v_avg, _limited_conv(v, v, v_lim, f_cmd, ratios[g], 0.0, 1.0, dt, st_c, cd, ch_g, E)[2])
+                v_avg = max(
+                    v_avg, _limited_conv(v, v, v_lim, f_cmd, ratios[g], not engaged, 0.0, 1.0, dt, st_c, cd, ch_g, E)[2]
+                )
         v_next = min(max(2.0 * v_avg - v, 0.0), v_lim)
         a = (v_next - v) / dt
         f_max = max(f_max, a)

@@ -37,7 +37,7 @@ from hevlib.sim.drive import (
     DriveConfig,
     KernelVehicle,
 )
-from hevlib.sim.powertrain.conventional import ConvDesign
+from hevlib.sim.powertrain.conventional import ConvDesign, ShiftLogic
 from hevlib.sim.powertrain.engine import EngineArrays
 from hevlib.sim.powertrain.lookup import resample, uniform_axis
 from hevlib.sim.powertrain.machines import MachineArrays
@@ -235,7 +235,7 @@ class KernelLibrary:
     thermal: Mapping[str, ThermalConfig]  #: per kind: engine and catalyst thermal data
     gearbox: ConvDesign  #: the conventional car's engine scale, wheel, idle, launch and gearbox losses
     ratios: np.ndarray  #: its overall gear ratios ...
-    upshift_kmh: np.ndarray  #: ... and upshift speeds
+    shift: ShiftLogic  #: ... and its shift logic (PTC_CONV)
 
     @classmethod
     def build(cls, lib: ComponentLibrary, params: Params) -> KernelLibrary:
@@ -282,6 +282,20 @@ class KernelLibrary:
             e.max_speed_rad_s,
             lib.accessory_conventional.mechanical_w,
             *map(float, lib.gearbox.loss_coefficients),
+            lib.conventional_control.idle_allowed,
+            lib.conventional_control.clutch_opens_without_torque,
+        )
+        ctl = lib.conventional_control
+        if ctl.shift_delay_s != 0.0:
+            raise ValueError(f"PTC_CONV: shift_delay_s {ctl.shift_delay_s} s: only instant shifts are modelled")
+        f = np.ascontiguousarray
+        shift = ShiftLogic(
+            base.conventional.shift_logic == "load",
+            f(ctl.upshift_speed_rad_s, float),
+            f(ctl.upshift_load, float),
+            f(ctl.downshift_speed_rad_s, float),
+            f(ctl.downshift_load, float),
+            f(base.conventional.upshift_kmh, float),
         )
         return cls(
             lib=lib,
@@ -309,7 +323,7 @@ class KernelLibrary:
             thermal=thermal,
             gearbox=gearbox,
             ratios=np.ascontiguousarray(base.conventional.gear_ratios, float),
-            upshift_kmh=np.ascontiguousarray(base.conventional.upshift_kmh, float),
+            shift=shift,
         )
 
     def mass_kg(self, X: np.ndarray) -> np.ndarray:
@@ -405,7 +419,7 @@ class Vehicle:
             library.generator,
             library.pack,
             library.ratios,
-            library.upshift_kmh,
+            library.shift,
             library.gearbox,
             library.thermal[kind],
         )

@@ -16,7 +16,9 @@ speed plus the crank work on the way, from the battery through the generator; th
 runs down in the engine's friction when it stops (not recovered), so it is a sink. E_ENGINE_INERTIA is the
 engine's work on the running carrier's inertia as its speed moves (the share of its torque the gear set does
 not get; negative when the inertia gives it back), booked at each step's speed. E_SHAFT_FUELLED is the shaft work of
-fuelled steps only (the numerator of the fuel-weighted mean engine efficiency).
+fuelled steps only (the numerator of the fuel-weighted mean engine efficiency). E_FUEL_COLD is the part of
+E_FUEL a cold engine burns above its hot map (the cold-engine factor's surplus); it is in E_LOSS_ENG but, as in
+ADVISOR, heats nothing: the thermal nodes get the hot map's waste heat and exhaust flow.
 """
 
 # ---- accumulated results per design
@@ -85,8 +87,9 @@ fuelled steps only (the numerator of the fuel-weighted mean engine efficiency).
     O_E_SHAFT_FUELLED,
     O_ACC_ABS_ERR,
     O_ACC_REQ_MAX,
-) = range(64)
-N_O = 64
+    O_E_FUEL_COLD,
+) = range(65)
+N_O = 65
 OUT_NAMES = (
     "fuel_g",
     "hc_g",
@@ -152,6 +155,7 @@ OUT_NAMES = (
     "e_shaft_fuelled_j",
     "acc_abs_err_sum_mps2",
     "acc_req_max_mps2",
+    "e_fuel_cold_surplus_j",
 )
 #: Heat balance of the thermal nodes (hevlib.sim.powertrain.thermal): stored heat change = sources - sinks.
 THERMAL_SOURCES = ("q_cyl_j", "q_exhaust_j", "q_exotherm_j")

@@ -14,6 +14,9 @@ Both are ADVISOR 2003's lumped-capacity models (``lib_fuel_converter`` ``fc temp
   reaction heat goes into the monolith; the shell exchanges with monolith, pipe and shield, pipe and shield
   lose heat to ambient, the manifold exchanges with the engine exterior.
 
+The engine's waste heat and the exhaust flow come from the hot map's fuel rate, as in ADVISOR's ``fc temp``: the
+surplus fuel a cold engine burns (its cold factor) heats nothing.
+
 Conversion of HC, CO and NOx follows the monolith temperature (``EX_SI`` table) and never exceeds the
 breakthrough limit: ``tailpipe = max(EO (1 - eff), EO - limit)``.
 
@@ -26,6 +29,8 @@ Where this differs from ADVISOR (simplest sound choices, see ``docs``/README):
 * all areas and masses follow the design's engine power (ADVISOR leaves the gas-side manifold and pipe areas
   unscaled);
 * the reaction heat uses the conversion of the same step (ADVISOR: of the step before);
+* the heat the manifold gives the engine's exterior reaches it (ADVISOR takes it from the manifold but never
+  adds it to the engine: about 0.3 % of the conventional car's FTP tailpipe figures);
 * explicit (forward Euler) integration with as many sub-steps per drive step as keep every node stable
   (:func:`substeps`); every heat flow leaves one node and enters another (or the environment), so the
   stored heat balances to round-off (``q_*`` accumulators).
@@ -349,8 +354,9 @@ def thermal_step(
     """Advance the nine nodes ``temp`` over one drive step; return the tailpipe (HC, CO, NOx) rates, g/s.
     ``q`` is scratch space (:func:`start`).
 
-    ``q_waste_w``: the engine's waste heat (fuel power - shaft power, the engine loss of the energy
-    balance) of the step, ``fuel_g_s`` its fuel rate (0: no exhaust flow), ``w_e`` its speed. Accumulates the
+    ``q_waste_w``: the engine's waste heat (hot-map fuel power - shaft power: the engine loss of the energy
+    balance less a cold engine's surplus fuel) of the step, ``fuel_g_s`` its hot-map fuel rate (0: no exhaust
+    flow), ``w_e`` its speed. Accumulates the
     heat terms ``O_Q_*`` of :mod:`hevlib.sim.powertrain.layout` in ``o``.
     """
     amb = t.amb_c
