@@ -296,7 +296,11 @@ def test_conventional_deceleration_follows_ptc_conv(sim, lib, params, cycles):
     assert (tr.loc[closed, "f_pt_n"] < 0).all()
 
     ctl = dataclasses.replace(lib.conventional_control, idle_allowed=False, clutch_opens_without_torque=True)
-    tr2, _ = _conv_trace(Simulator(dataclasses.replace(lib, conventional_control=ctl), params), cycles["ftp"])
+    other = Simulator(dataclasses.replace(lib, conventional_control=ctl), params)
+    tr2, _ = _conv_trace(other, cycles["ftp"])
+    res = other.run_raw(None, cycles["ftp"], "conventional")
+    assert energy_balance(res)["residual_share"].iloc[0] < 1e-9  # the accessories are off, not lost
+    assert res.frame()["e_acc_unmet_j"].iloc[0] > 0
     slowing2 = (tr2["v_mps"].diff() < -0.05) & (tr2["f_brake_n"] < -100.0)  # braking, not easing off
     assert slowing2.sum() > 100
     assert (tr2.loc[slowing2, "gear"] == 0).all() and (tr2.loc[slowing2, "fuel_g_s"] == 0).all()
