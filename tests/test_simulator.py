@@ -174,6 +174,12 @@ def _conv_trace(sim, cycle):
     return tr, 0.5 * (v + np.r_[0.0, v[:-1]])  # each row's step mean speed (rows 1..: step t -> row t + 1)
 
 
+def _at_rest(tr) -> np.ndarray:
+    """Rows of a trace whose whole step the car stood still and the cycle asked it to."""
+    v = tr["v_mps"].to_numpy()
+    return (v == 0) & (np.r_[0.0, v[:-1]] == 0) & (tr["v_ref_mps"] == 0).to_numpy()
+
+
 def test_conventional_gear_kinematics_and_idle(sim, cycles, lib, params):
     tr, v_mean = _conv_trace(sim, cycles["ftp"])
     ratios = np.array(params.baseline.conventional.gear_ratios)
@@ -189,8 +195,7 @@ def test_conventional_gear_kinematics_and_idle(sim, cycles, lib, params):
     assert closed_below_launch.sum() > 10 and (w_in[closed_below_launch] >= w_idle * (1 - 1e-9)).all()
     # standstill with the key on: idle fuel; key off (the FTP soak): none
     key_on = np.r_[False, cycles["ftp"].key_on[:-1]]  # row t + 1 holds step t
-    v = tr["v_mps"].to_numpy()
-    stopped = (v == 0) & (np.r_[0.0, v[:-1]] == 0) & (tr["v_ref_mps"] == 0).to_numpy()  # the whole step at rest
+    stopped = _at_rest(tr)
     idle, soak = stopped & key_on, stopped & ~key_on
     assert idle.sum() > 300 and (tr.loc[idle, "fuel_g_s"] > 0.05).all()
     assert np.allclose(tr.loc[idle, "w_eng_rad_s"], w_idle) and (tr.loc[idle, "gear"] == 0).all()
@@ -305,8 +310,7 @@ def test_conventional_deceleration_follows_ptc_conv(sim, lib, params, cycles):
     assert slowing2.sum() > 100
     assert (tr2.loc[slowing2, "gear"] == 0).all() and (tr2.loc[slowing2, "fuel_g_s"] == 0).all()
     assert (tr2.loc[slowing2, "eng_on"] == 0).all()
-    v = tr2["v_mps"].to_numpy()
-    stopped = (v == 0) & (np.r_[0.0, v[:-1]] == 0) & (tr2["v_ref_mps"] == 0).to_numpy()  # the whole step at rest
+    stopped = _at_rest(tr2)
     assert stopped.sum() > 300 and (tr2.loc[stopped, "fuel_g_s"] == 0).all()
 
 
