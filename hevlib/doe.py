@@ -48,7 +48,7 @@ from hevlib.tables import write_parquet_batches
 
 L27_FILE = "data/raw/paper/l27_assignment.csv"
 METHODS = ("l27", "lhs", "both")
-SOURCES = ("l27", "lhs", "heldout")
+SOURCES = ("l27", "lhs", "heldout", "judge")  # judge: the judged scale's reference set (`hev judge`)
 
 
 def _field(name: str, typ: pa.DataType) -> pa.Field:

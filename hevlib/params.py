@@ -340,6 +340,29 @@ class InfillParams(_Strict):
     criterion: Literal["diverse", "uncertainty"] = "uncertainty"  # see hevlib.optimise.infill.select_candidates
 
 
+class BayesParams(_Strict):
+    """One Bayesian-optimisation source on BoTorch (``optimise.bayes.<name>``; hevlib/optimise/bayesopt.py):
+    rounds of ``batch`` designs from the DOE until ``budget`` simulations (the DOE's included)."""
+
+    acquisition: Literal["parego", "nehvi"]  # qLogNParEGO on all 11 objectives | qLogNEHVI on a reduced set
+    budget: Annotated[int, Field(ge=2, le=10_000_000)]  # simulations, the DOE's included
+    batch: Annotated[int, Field(ge=1, le=100)] = 10  # designs per round (chosen greedily, pending points)
+    num_restarts: Annotated[int, Field(ge=1, le=1000)] = 2  # acquisition-optimiser restarts per design
+    raw_samples: Annotated[int, Field(ge=2, le=100_000)] = 64  # initial candidates the restarts start from
+    mc_samples: Annotated[int, Field(ge=2, le=10_000)] = 32  # quasi-Monte Carlo posterior samples
+    n_objectives: Annotated[int, Field(ge=1, le=11)] = 4  # nehvi: the reduced set's size (chosen from the DOE)
+    seed: Seed = 0
+
+
+class JudgeParams(_Strict):
+    """The judged scale (``hev judge``): a Latin hypercube of admissible designs (exact rules met, integers
+    and gear sets repaired) simulated once; its screen-passing designs' ideal and nadir normalise every
+    hypervolume and IGD+ figure. No search produces or sees it."""
+
+    n: Annotated[int, Field(ge=10, le=10_000_000)] = 10_000
+    seed: Seed = 38
+
+
 class OptimiseParams(_Strict):
     hv_samples: Annotated[int, Field(ge=100, le=100_000_000)] = 1_000_000  # Monte Carlo fallback's samples
     # exact hypervolume up to this many non-dominated designs (measured cost: hevlib.indicators.hypervolume)
@@ -350,32 +373,26 @@ class OptimiseParams(_Strict):
     algorithms: dict[Literal["nsga3", "moead", "moga"], AlgoParams]
     oracle: OracleParams = OracleParams()
     infill: InfillParams = InfillParams()
-    sources: list[Literal["nsga3", "moead", "moga", "oracle"]] = ["nsga3", "moead", "moga", "oracle"]
+    judge: JudgeParams = JudgeParams()
+    bayes: dict[Literal["parego", "nehvi"], BayesParams] = {}  # BoTorch sources (their own stage)
+    sources: list[Literal["nsga3", "moead", "moga", "parego", "nehvi", "oracle"]] = ["nsga3", "moead", "moga", "oracle"]
 
     @model_validator(mode="after")
     def _sources_configured(self):
         for name in self.sources:
-            if name != "oracle" and name not in self.algorithms:
-                raise ValueError(f"sources: {name} is not in optimise.algorithms")
+            if name != "oracle" and name not in self.algorithms and name not in self.bayes:
+                raise ValueError(f"sources: {name} is not in optimise.algorithms or optimise.bayes")
+        for name, b in self.bayes.items():
+            if b.acquisition != name:
+                raise ValueError(f"bayes.{name}.acquisition: must be {name}, got {b.acquisition}")
         if len(set(self.sources)) != len(self.sources) or not self.sources:
             raise ValueError("sources: must name at least one source, each once")
         return self
 
 
 # --------------------------------------------------------------------------------------- benchmark
-BENCHMARK_SOURCES = ("nsga3", "moead", "moga", "parego", "nsga3_direct", "moead_direct", "lhs", "oracle")
-
-
-class ParegoParams(_Strict):
-    """Batch ParEGO on Gaussian processes (hevlib/optimise/parego.py, hevlib/surrogates/gp.py)."""
-
-    batch: Annotated[int, Field(ge=1, le=10_000)] = 100  # designs simulated per round (one weight vector each)
-    pool_random: Annotated[int, Field(ge=1, le=1_000_000)] = 2000  # uniform candidates per round
-    pool_local: Annotated[int, Field(ge=0, le=1_000_000)] = 2000  # moves around the non-dominated designs
-    local_step: Annotated[float, Field(gt=0, le=1)] = 0.05  # their standard deviation, share of each range
-    n_samples: Annotated[int, Field(ge=1, le=10_000)] = 32  # posterior draws per candidate
-    rho: Annotated[float, Field(ge=0, le=1)] = 0.05  # augmented Chebyshev term
-    max_fit_rows: Annotated[int, Field(ge=10, le=100_000)] = 250  # designs the hyperparameters are fitted on
+# a new source goes at the end: a run's seed depends on its source's position (hevlib.benchmark.runs.run_seed)
+BENCHMARK_SOURCES = ("nsga3", "moead", "moga", "parego", "nsga3_direct", "moead_direct", "lhs", "oracle", "nehvi")
 
 
 class DirectParams(_Strict):
@@ -399,7 +416,6 @@ class BenchmarkParams(_Strict):
     budgets: Annotated[list[Annotated[int, Field(ge=1)]], Field(min_length=1)] = [250, 500, 1000, 2000, 5000]
     nsga3_direct: DirectParams = DirectParams(pop_size=77)
     moead_direct: DirectParams = DirectParams(pop_size=50)
-    parego: ParegoParams = ParegoParams()
     hv_samples: Annotated[int, Field(ge=1000, le=100_000_000)] = 2_000_000  # common Monte Carlo samples
     hv_seed: Seed = 5
     alpha: Annotated[float, Field(gt=0, lt=1)] = 0.05  # Holm-corrected significance level

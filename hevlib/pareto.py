@@ -233,11 +233,11 @@ def screened_normalisation(tables: Sequence[Table], screen) -> Normalisation:
     return Normalisation.from_points(F)
 
 
-def judged_normalisation(doe: Table, heldout: Table, screen) -> Normalisation:
-    """The normalisation every source is judged on: :func:`screened_normalisation` of the DOE and the
-    held-out designs (unprefixed responses, as simulated) -- data no source produced. It scores; no
-    search ever sees it."""
-    return screened_normalisation([simulated_as_front(doe), simulated_as_front(heldout)], screen)
+def judged_normalisation(reference: Table, screen) -> Normalisation:
+    """The normalisation every source is judged on: :func:`screened_normalisation` of the judged scale's
+    reference set (``hev judge``: a large Latin hypercube of admissible designs, unprefixed responses as
+    simulated) -- data no source produced. It scores; no search ever sees it."""
+    return screened_normalisation([simulated_as_front(reference)], screen)
 
 
 def screened_hypervolume(

@@ -31,11 +31,11 @@ from hevlib.design import DESIGN_VARS
 from hevlib.recommend import FAMILY_SHARE, KNEE_CRITERIA, same_family
 
 #: Every source a replicate can reseed, in the order their seeds are derived (an index into this tuple).
-SEEDED_SOURCES: tuple[str, ...] = ("nsga3", "moead", "moga", "oracle")
+SEEDED_SOURCES: tuple[str, ...] = ("nsga3", "moead", "moga", "oracle", "parego", "nehvi")  # new ones at the end
 #: The headline figures whose seed spread is reported (``reports/answer.json``'s short keys).
 SPREAD_KEYS: tuple[str, ...] = ("rec_fc_cb_pct", "fc_cb_pct", "fc_pct", "fc_vs_prius_pct", "mass_pct", "p_eng_kw")
 #: Inputs a replicate shares with the default pipeline (linked into its folder, never written).
-SHARED_INPUTS: tuple[str, ...] = ("data/cycles", "data/components", "data/doe")
+SHARED_INPUTS: tuple[str, ...] = ("data/cycles", "data/components", "data/doe", "data/judge")
 #: Code a replicate runs (besides the simulator, which the params' simulation fingerprint covers).
 RUN_MODULES: tuple[str, ...] = ("stages.optimise", "stages.pareto", "stages.validate")
 
@@ -52,17 +52,23 @@ def replicate_seeds(raw: Mapping, replicate: int) -> dict[str, int]:
     root = int(raw.get("robustness", {}).get("seed", 3636))
     out = {}
     for source in o.get("sources", SEEDED_SOURCES):
-        own = o["oracle"]["seed"] if source == "oracle" else o["algorithms"][source]["seed"]
+        own = _seed_node(o, source).get("seed", 0)
         out[source] = int(own) if replicate == 0 else replicate_seed(root, source, replicate)
     return out
+
+
+def _seed_node(o: Mapping, source: str) -> Mapping:
+    """The params node that holds ``source``'s seed (``optimise.oracle``, ``.algorithms.<s>`` or ``.bayes.<s>``)."""
+    if source == "oracle":
+        return o["oracle"]
+    return o["algorithms"][source] if source in o.get("algorithms", {}) else o["bayes"][source]
 
 
 def replicate_params(raw: Mapping, replicate: int) -> dict:
     """The raw params mapping of a replicate: the same but every source's seed (:func:`replicate_seeds`)."""
     out = copy.deepcopy(dict(raw))
     for source, seed in replicate_seeds(raw, replicate).items():
-        node = out["optimise"]["oracle"] if source == "oracle" else out["optimise"]["algorithms"][source]
-        node["seed"] = seed
+        _seed_node(out["optimise"], source)["seed"] = seed
     return out
 
 

@@ -16,7 +16,7 @@ import typer
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_setup, stage
 from stages.doe import DOE
-from stages.heldout import HELDOUT
+from stages.judge import REFERENCE
 
 RUNS_DIR = Path("data/benchmark/runs")
 ROOT = Path(__file__).resolve().parents[1]
@@ -68,7 +68,7 @@ def benchmark_run_stage(
     from hevlib.design import DESIGN_VARS, RESPONSES
     from hevlib.io import read_table, write_parquet
     from hevlib.params import BENCHMARK_SOURCES
-    from stages.optimise import _problem_factory
+    from stages.optimise import problem_factory
 
     cfg = params_from(params)
     if source not in BENCHMARK_SOURCES:
@@ -98,7 +98,7 @@ def benchmark_run_stage(
     for k in todo:
         t0 = time.perf_counter()
         with progress_callback(f"benchmark {source}: run {k + 1}/{n_runs(cfg, source)}") as cb:
-            ctx = RunContext(cfg, simulate, _problem_factory(cfg, sim), X_doe, R_doe, cb)
+            ctx = RunContext(cfg, simulate, problem_factory(cfg, sim), X_doe, R_doe, cb)
             table = run_source(ctx, source, k)
         wall = time.perf_counter() - t0
         out = run_path(source, k, runs_dir)
@@ -131,5 +131,5 @@ def benchmark_report_stage(
 
     cfg = params_from(params)
     with progress_callback("benchmark: scoring runs") as cb:
-        out = benchmark_report(cfg, runs_dir, DOE, HELDOUT, out_dir, progress=cb)
+        out = benchmark_report(cfg, runs_dir, REFERENCE, out_dir, progress=cb)
     typer.echo(out)

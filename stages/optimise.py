@@ -1,5 +1,6 @@
 """``hev optimise SOURCE``: one source of designs on the sizing problem (SPEC 8): a surrogate-assisted
-optimiser with infill (``nsga3``, ``moead``, ``moga``) or the oracle (the simulator in the loop)."""
+optimiser with infill (``nsga3``, ``moead``, ``moga``), a BoTorch source (``parego``, ``nehvi``) or the
+oracle (the simulator in the loop)."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from hevlib.plots.fronts import front_figure
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_setup, stage
 from stages.doe import DOE
-from stages.heldout import HELDOUT
+from stages.judge import REFERENCE
 
 FRONTS_DIR = Path("data/pareto")
 REPORTS_DIR = Path("reports")
@@ -22,7 +23,7 @@ ORACLE_REPORT = REPORTS_DIR / "optimise_oracle.json"
 LOGS_DIR = Path("logs")  # wall times and other machine-dependent figures (git-ignored, not metrics)
 
 
-def _problem_factory(cfg, sim):
+def problem_factory(cfg, sim):
     """``make_problem(model, stalled=None)``: the one sizing problem every source solves."""
     from hevlib.optimise import HevProblem
 
@@ -44,10 +45,17 @@ def _problem_factory(cfg, sim):
     return make_problem
 
 
+def _oracle_report() -> dict:
+    """The oracle's report (every other source is judged against its archive)."""
+    if not ORACLE_REPORT.exists():
+        raise FileNotFoundError(f"{ORACLE_REPORT}: no such file; run `hev optimise oracle` first")
+    return json.loads(ORACLE_REPORT.read_text())
+
+
 @app.command("optimise")
 @stage
 def optimise_stage(
-    source: str = typer.Argument(..., help="nsga3, moead, moga (surrogate-assisted) or oracle"),
+    source: str = typer.Argument(..., help="nsga3, moead, moga (surrogate-assisted), parego, nehvi (BoTorch), oracle"),
     params: str = PARAMS_OPTION,
 ) -> None:
     """Run SOURCE on the sizing cycle; write data/pareto/SOURCE.parquet (every round's front, column
@@ -63,21 +71,22 @@ def optimise_stage(
     o = cfg.optimise
     if o is None:
         raise ValueError("params.yaml: optimise: group missing")
-    if source != "oracle" and source not in o.algorithms:
+    if source != "oracle" and source not in o.algorithms and source not in o.bayes:
+        configured = [*o.algorithms, *o.bayes]
         raise ValueError(
-            f"params.yaml: optimise.algorithms.{source}: not configured "
-            f"(configured: {', '.join(o.algorithms) or 'none'}; or use oracle)"
+            f"params.yaml: optimise.algorithms.{source} / optimise.bayes.{source}: not configured "
+            f"(configured: {', '.join(configured) or 'none'}; or use oracle)"
         )
     sim, cycle = sizing_setup(cfg)
-    make_problem = _problem_factory(cfg, sim)
+    make_problem = problem_factory(cfg, sim)
 
     def simulate(X):
         return sim.run(X, cycle, vehicle="hybrid", batch_size=cfg.doe.batch_size)
 
     doe_df = read_table(DOE)
-    # the one normalisation every source is judged on: screen-passing designs of the DOE and the held-out
+    # the one normalisation every source is judged on: screen-passing designs of the judged scale's reference
     # set, which no source produced; it only scores (HvSettings), never steers a search
-    hv = HvSettings.from_params(judged_normalisation(doe_df, read_table(HELDOUT), cfg.screen), o, cfg.screen)
+    hv = HvSettings.from_params(judged_normalisation(read_table(REFERENCE), cfg.screen), o, cfg.screen)
     log = SimulationLog(simulate)  # every simulation the source makes: its archive
 
     if source == "oracle":
@@ -86,13 +95,25 @@ def optimise_stage(
             result = oracle(make_problem, settings, log, hv, progress=cb)
         surrogate = "simulator"
         final = result.population
+    elif source in o.bayes:
+        from hevlib.optimise import bayes
+
+        settings = o.bayes[source]
+        ref = _oracle_report()
+        X, R = doe_df[list(DESIGN_VARS)].to_numpy(dtype=float), doe_df[list(RESPONSES)]
+        label = f"{source} (BoTorch): {settings.budget} simulations"
+        with progress_callback(label) as cb:
+            result = bayes(
+                source, settings, make_problem, X, R, log, hv, o.oracle.pop_size, cfg.surrogate.bnn.log_targets,
+                ref["archive"]["hypervolume"], progress=cb,
+            )  # fmt: skip
+        surrogate = "gp"
+        final = "last"
     else:
         from hevlib.surrogates import fit_surrogate
 
         settings = o.algorithms[source]
-        if not ORACLE_REPORT.exists():
-            raise FileNotFoundError(f"{ORACLE_REPORT}: no such file; run `hev optimise oracle` first")
-        ref = json.loads(ORACLE_REPORT.read_text())
+        ref = _oracle_report()
         log.record(doe_df[list(DESIGN_VARS)].to_numpy(dtype=float), doe_df[list(RESPONSES)])  # the DOE counts
         X, Y = training_data(doe_df, what=str(DOE))
         space = cfg.design_space.space()

@@ -15,8 +15,7 @@ from hevlib.recommend import active_bounds
 from hevlib.tables import scan
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, stage
-from stages.doe import DOE
-from stages.heldout import HELDOUT
+from stages.judge import REFERENCE
 
 FRONTS_DIR = Path("data/pareto")
 MERGED = FRONTS_DIR / "merged.parquet"
@@ -42,7 +41,7 @@ def pareto(params_path: str = PARAMS_OPTION) -> None:
     # a source's front is its last round's rows (earlier rounds are the infill history)
     fronts = {a: t.filter(pl.col("round") == pl.col("round").max()).drop("round").collect() for a, t in tables.items()}
     archives = {a: scan(FRONTS_DIR / f"{a}_archive.parquet").collect() for a in algos}
-    norm = judged_normalisation(read_table(DOE), read_table(HELDOUT), params.screen)
+    norm = judged_normalisation(read_table(REFERENCE), params.screen)
     result = select_designs(fronts, params.screen)
     additions, hv_wall_s = source_summary(fronts, archives, reports, result.merged, params.screen, o, norm)
     result.summary.update(additions)

@@ -1,5 +1,5 @@
 """Issue 24: the equal-budget benchmark -- its indicators (common-sample hypervolume, greedy hypervolume
-subsets, IGD+), statistics (Mann-Whitney, Holm, A12), the Gaussian processes and ParEGO, runs that
+subsets, IGD+), statistics (Mann-Whitney, Holm, A12), runs (the BoTorch sources' own tests: test_bayesopt.py) that
 record every simulation, and scoring on one judged object. Stand-in models, small budgets."""
 
 from __future__ import annotations
@@ -8,11 +8,13 @@ import numpy as np
 import pandas as pd
 import pytest
 from test_infill import SCREEN, _designs, _hv, _make_problem
-from test_optimise import SPACE, stand_in_simulate
+from test_optimise import stand_in_simulate
 
 from hevlib.benchmark.runs import RUN_SCHEMA, RunContext, run_seed, run_source
 from hevlib.benchmark.scoring import (
     a12,
+    best_known_front,
+    both_indicators,
     budget_table,
     comparisons,
     holm,
@@ -23,11 +25,8 @@ from hevlib.benchmark.scoring import (
 )
 from hevlib.design import OBJECTIVES, RESPONSES
 from hevlib.indicators import CommonSamples, Normalisation, hv_greedy_subset, hypervolume_exact, igd_plus
-from hevlib.optimise.archive import SimulationLog
-from hevlib.optimise.parego import ParegoSettings, choose_batch, parego
 from hevlib.params import load_params
 from hevlib.pareto import pick_diverse, to_minimisation
-from hevlib.surrogates.gp import GaussianProcesses
 
 
 # ----------------------------------------------------------------------------------- statistics
@@ -105,51 +104,6 @@ def test_igd_plus_counts_only_where_a_front_is_worse():
     assert igd_plus(np.array([[0.5, 1.0]]), R) == pytest.approx((0.5 + 1.0) / 2)
 
 
-# ----------------------------------------------------------------------------------- models
-def test_gaussian_processes_fit_smooth_objectives_and_know_where_they_have_no_data():
-    X = _designs(80, 3)
-    Y = stand_in_simulate(X)[list(OBJECTIVES)].to_numpy()
-    gp = GaussianProcesses(SPACE, ["fc"], max_fit_rows=60, seed=0).fit(X, Y)
-    X_test = _designs(60, 4)
-    Y_test = stand_in_simulate(X_test)[list(OBJECTIVES)].to_numpy()
-    mean, std = gp.predict(X_test, return_std=True)
-    r2 = 1 - ((mean - Y_test) ** 2).sum(0) / ((Y_test - Y_test.mean(0)) ** 2).sum(0)
-    assert np.median(r2) > 0.8
-    _, std_train = gp.predict(X[:20], return_std=True)
-    assert np.all(np.median(std_train, axis=0) < np.median(std, axis=0))  # less unsure where it was trained
-    draws = gp.sample(X_test[:5], 64, np.random.default_rng(0))
-    assert draws.shape == (64, 5, len(OBJECTIVES)) and np.all(np.isfinite(draws))
-    np.testing.assert_allclose(draws.std(axis=0)[:, 0], std[:5, 0], rtol=0.35)
-
-
-def test_parego_picks_the_expected_improvement_and_never_twice():
-    S, m = 16, 5
-    draws = np.ones((S, m, 2))
-    draws[:, 3] = 0.1  # candidate 3 improves on the best found (0.5, 0.5) for every weight
-    feasible = np.ones((S, m), dtype=bool)
-    weights = np.array([[0.5, 0.5], [0.9, 0.1]])
-    pick = choose_batch(draws, feasible, np.array([[0.5, 0.5]]), weights, 0.05)
-    assert pick[0] == 3 and len(set(pick)) == 2
-    feasible[:, 3] = False  # improvement only counts where the speed rule holds
-    assert choose_batch(draws, feasible, np.array([[0.5, 0.5]]), weights[:1], 0.05)[0] != 3
-
-
-def test_parego_spends_exactly_its_budget_inside_the_exact_constraints():
-    X_doe = _designs(20, 5)
-    log = SimulationLog(stand_in_simulate)
-    log.record(X_doe, stand_in_simulate(X_doe))
-
-    def fit(X, Y):
-        return GaussianProcesses(SPACE, max_fit_rows=40, max_iter=15).fit(X, Y)
-
-    settings = ParegoSettings(batch=8, pool_random=300, pool_local=200, n_samples=8, seed=1)
-    X, R = parego(_make_problem, fit, X_doe, stand_in_simulate(X_doe), log, SCREEN, 44, settings)
-    assert len(X) == len(R) == len(log) == 44
-    new = X[20:]
-    assert len(np.unique(new, axis=0)) == len(new)
-    assert np.all(_make_problem(None).constraint(new, np.zeros((len(new), len(OBJECTIVES))))[:, 0] <= 0)
-
-
 # ----------------------------------------------------------------------------------- runs
 @pytest.fixture(scope="module")
 def tiny_cfg():
@@ -164,6 +118,11 @@ def tiny_cfg():
             "algorithms": small,
             "oracle": o.oracle.model_copy(update={"pop_size": 20, "n_gen": 3}),
             "infill": o.infill.model_copy(update={"designs_per_round": 15, "n_gen": 3}),
+            "bayes": {
+                "parego": o.bayes["parego"].model_copy(
+                    update={"batch": 10, "num_restarts": 1, "raw_samples": 16, "mc_samples": 8}
+                )
+            },
         }
     )
     bench = cfg.benchmark.model_copy(
@@ -174,7 +133,6 @@ def tiny_cfg():
             "oracle_seeds": 1,
             "nsga3_direct": cfg.benchmark.nsga3_direct.model_copy(update={"pop_size": 20}),
             "moead_direct": cfg.benchmark.moead_direct.model_copy(update={"pop_size": 20, "n_neighbors": 5}),
-            "parego": cfg.benchmark.parego.model_copy(update={"batch": 10, "pool_random": 200, "pool_local": 100}),
         }
     )
     return cfg.model_copy(update={"optimise": optimise, "benchmark": bench, "screen": SCREEN})
@@ -187,6 +145,8 @@ def _context(cfg) -> RunContext:
 
 @pytest.mark.parametrize("source", ["lhs", "nsga3_direct", "moead", "parego", "oracle"])
 def test_a_run_records_every_simulation_in_order(tiny_cfg, source):
+    if source == "parego":  # a BoTorch design costs about a second: a smaller budget
+        tiny_cfg = tiny_cfg.model_copy(update={"benchmark": tiny_cfg.benchmark.model_copy(update={"budget": 33})})
     ctx = _context(tiny_cfg)
     table = run_source(ctx, source, 0)
     assert table.schema.equals(RUN_SCHEMA)
@@ -211,14 +171,14 @@ def test_a_run_records_every_simulation_in_order(tiny_cfg, source):
 def test_scoring_judges_every_run_on_the_same_object(tiny_cfg):
     cfg = tiny_cfg
     runs = []
-    for source in ("lhs", "nsga3_direct", "moead", "parego"):
+    for source in ("lhs", "nsga3_direct", "moead", "moga"):
         for k in range(2):
             runs.append(judged_run(source, k, run_source(_context(cfg), source, k).to_pandas(), SCREEN))
     norm = _hv().norm
     lo = np.minimum.reduce([norm(r.F).min(axis=0) for r in runs]) - 1e-9
     samples = CommonSamples.draw(np.minimum(lo, 0.0), 1.1, 20_000, seed=1)
     budgets = {r.source: [30, 60] for r in runs}
-    scores = score_runs(runs, norm, samples, budgets, None)
+    scores = score_runs(runs, norm, samples, budgets, best_known_front(runs, norm, 1.1), [30, 60])
     df = scores.per_budget
     for (_s, _k), g in df.groupby(["source", "run"]):
         hv = g.sort_values("budget")["hypervolume"].to_numpy()
@@ -227,18 +187,28 @@ def test_scoring_judges_every_run_on_the_same_object(tiny_cfg):
     at30 = df[(df.source == r.source) & (df.run == r.run) & (df.budget == 30)]
     assert at30["hypervolume"].item() == samples.of(norm(r.F[prefix(r, 30)]))[0]
     table = budget_table(scores)
-    assert set(table) == {"lhs", "nsga3_direct", "moead", "parego"} and table["lhs"]["30"]["n"] == 2
+    assert set(table) == {"lhs", "nsga3_direct", "moead", "moga"} and table["lhs"]["30"]["n"] == 2
     tests = comparisons(scores, [30, 60], 0.05, 0.71)
     medians = {s: table[s]["30"]["median"] for s in ("lhs", "nsga3_direct")}
-    assert tests["30"]["parego"]["direct"] == max(medians, key=medians.get)  # the best direct search there
+    assert tests["30"]["moead"]["direct"] == max(medians, key=medians.get)  # the best direct search there
     for per in tests.values():
-        assert set(per) == {"moead", "parego"} and all(per[s]["saea"] == s for s in per)
+        assert set(per) == {"moead", "moga"} and all(per[s]["saea"] == s for s in per)
         assert all(t["direct"] in ("lhs", "nsga3_direct") and t["p_holm"] >= t["p"] for t in per.values())
+    # IGD+ at every budget, lower is better: the best direct search there is the one with the lowest median
+    igd = comparisons(scores, [30, 60], 0.05, 0.71, "igd_plus")
+    at = df[(df.budget == 30) & df.source.isin(["lhs", "nsga3_direct"])].groupby("source")["igd_plus"].median()
+    assert igd["30"]["moead"]["direct"] == at.idxmin() and igd["30"]["moead"]["indicator"] == "igd_plus"
+    both = both_indicators(scores, [30, 60], 1.0, 0.0)  # no bar: only the medians decide
+    igd_free = comparisons(scores, [30, 60], 1.0, 0.0, "igd_plus")
+    for b, per in both.items():
+        for src, t in per.items():
+            assert t["igd_plus"] == igd_free[b][src]
+            assert t["beats_direct"] == (t["beats_direct_hypervolume"] and igd_free[b][src]["beats_direct"])
 
 
 def test_the_judged_normalisation_never_reaches_a_search():
     """A search's candidate scales come from its own training data (``search_normalisation``), so a
-    judged normalisation built from the held-out set cannot steer it: two very different judged
+    judged normalisation built from the judged scale's reference set cannot steer it: two very different judged
     normalisations give the same searched designs."""
     from test_infill import CountingFit
     from test_optimise import SMALL

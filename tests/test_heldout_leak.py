@@ -1,6 +1,7 @@
-"""Issue 24: `hev optimise` with a held-out set on disk never lets it reach a surrogate.
+"""Issue 24 and 38: `hev optimise` with the held-out set and the judged scale on disk never lets either
+reach a surrogate.
 
-The stage reads the held-out Latin hypercube to build the judged normalisation (scoring only). A spy
+The stage reads the judged scale's reference set to build the judged normalisation (scoring only). A spy
 replaces ``hevlib.surrogates.fit_surrogate``: it records every training set and wraps the fitted model so
 that every array any of its methods is given (``predict``, ``predict_std``, or a calibration a future
 change might add) is recorded too. No held-out design or held-out objective row may appear anywhere, and
@@ -19,12 +20,16 @@ from typer.testing import CliRunner
 from hevlib.design import DESIGN_VARS, OBJECTIVES
 from stages.cli import app
 
+JUDGE = "data/judge/reference.parquet"
+
 TINY = {
     "doe": {"method": "l27"},
     "surrogate": {"heldout": {"n": 12}, "bnn": {"max_epochs": 20, "restarts": 1}},
     "optimise": {
         "hv_samples": 2000,
         "oracle": {"pop_size": 12, "n_gen": 2},
+        "judge": {"n": 300},
+        "bayes": {"parego": {"budget": 32, "batch": 5, "raw_samples": 16, "num_restarts": 1, "mc_samples": 8}},
         "algorithms": {"nsga3": {"pop_size": 12, "n_gen": 3}},
         "infill": {"rounds": 1, "designs_per_round": 6, "n_gen": 2},
     },
@@ -70,7 +75,7 @@ def test_optimise_never_lets_the_held_out_set_reach_a_fit(root, tmp_path, monkey
     (tmp_path / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
     monkeypatch.chdir(tmp_path)
     runner = CliRunner()
-    for cmd in (["cycles"], ["components"], ["doe"], ["heldout"], ["optimise", "oracle"]):
+    for cmd in (["cycles"], ["components"], ["doe"], ["heldout"], ["judge"], ["optimise", "oracle"]):
         result = runner.invoke(app, cmd)
         assert result.exit_code == 0, result.output
 
@@ -88,9 +93,9 @@ def test_optimise_never_lets_the_held_out_set_reach_a_fit(root, tmp_path, monkey
     assert result.exit_code == 0, result.output
     assert len(fits) == 2  # round 0 and one infill round
 
-    heldout = pd.read_parquet(tmp_path / "data/doe/heldout.parquet")
-    X_h = heldout[list(DESIGN_VARS)].to_numpy(dtype=float)
-    Y_h = heldout[list(OBJECTIVES)].to_numpy(dtype=float)
+    unseen = pd.concat([pd.read_parquet(tmp_path / f) for f in ("data/doe/heldout.parquet", JUDGE)])
+    X_h = unseen[list(DESIGN_VARS)].to_numpy(dtype=float)
+    Y_h = unseen[list(OBJECTIVES)].to_numpy(dtype=float)
     archive = pd.read_parquet(tmp_path / "data/pareto/nsga3_archive.parquet")
     X_own = archive[list(DESIGN_VARS)].to_numpy(dtype=float)
     Y_own = archive[[f"sim_{k}" for k in OBJECTIVES]].to_numpy(dtype=float)
@@ -103,3 +108,23 @@ def test_optimise_never_lets_the_held_out_set_reach_a_fit(root, tmp_path, monkey
         if A.ndim == 2 and A.shape[1] == len(OBJECTIVES):
             assert not _rows_in(A, Y_h).any()
     assert calls  # the spy saw the search's predictions
+
+    # the BoTorch source: every model it fits sees its own simulations only
+    import hevlib.optimise.bayesopt as bayesopt
+
+    bo_fits = []
+    real_models = bayesopt.fit_models
+
+    def spy_models(X, R, *args):
+        bo_fits.append((np.array(X, dtype=float), R[list(OBJECTIVES)].to_numpy(dtype=float)))
+        return real_models(X, R, *args)
+
+    monkeypatch.setattr(bayesopt, "fit_models", spy_models)
+    result = runner.invoke(app, ["optimise", "parego"])
+    assert result.exit_code == 0, result.output
+    archive = pd.read_parquet(tmp_path / "data/pareto/parego_archive.parquet")
+    assert len(bo_fits) >= 1 and len(archive) == 32
+    X_own = archive[list(DESIGN_VARS)].to_numpy(dtype=float)
+    for X, Y in bo_fits:
+        assert not _rows_in(X, X_h).any() and not _rows_in(Y, Y_h).any()
+        assert _rows_in(X, X_own).all()

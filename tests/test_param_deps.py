@@ -17,7 +17,7 @@ from hevlib.params import EXECUTION_KEYS, SimParams, load_params, sizing_simulat
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(os.environ.get("VIRTUAL_ENV", REPO / ".venv")) / "bin"
 PIPELINE = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]
-SIMULATING = ("doe", "heldout", "oracle", "optimise")
+SIMULATING = ("doe", "heldout", "judge", "oracle", "optimise", "bayes")
 
 
 def _params_of(stage: str, sizing: str) -> list[str]:
@@ -53,13 +53,14 @@ CHANGES = {
     "sim.start.hwfet": ("cold", {"baselines", "validate"}),
     "sim.charge_balance_tolerance": (0.02, {"baselines", "validate"}),
     "sim.workers": (1, set()),
-    "sim.soc_min": (0.44, {"baselines", "doe", "heldout", "oracle", "optimise", "validate"}),
+    "sim.soc_min": (0.44, {"baselines", "doe", "heldout", "judge", "oracle", "optimise", "bayes", "validate"}),
     "baseline.prius.n_r": (80, {"baselines", "validate"}),
     "baseline.conventional.gear_ratios": ([13.2, 7.35, 4.91, 3.49, 2.6], {"components", "baselines", "validate"}),
     "screen.seed": (7, {"pareto"}),
-    "screen.min_v_max_kmh": (120.0, {"oracle", "optimise", "pareto", "validate"}),
+    "screen.min_v_max_kmh": (120.0, {"judge", "oracle", "optimise", "bayes", "pareto", "validate"}),
     "validate.cycles": (["ftp", "hwfet"], {"validate"}),
     "optimise.infill.rounds": (3, {"optimise"}),
+    "optimise.bayes.nehvi.batch": (5, {"bayes"}),
 }
 
 

@@ -373,7 +373,8 @@ def test_pareto_stage_writes_its_outputs(tmp_path, monkeypatch):
     assert not Path("data/pareto/merged.parquet").exists()
     Path("data/pareto").mkdir(parents=True)
     Path("reports").mkdir()
-    fronts = {**_fronts(), "oracle": synthetic_front(80, 13)}
+    fronts = {**_fronts(), "parego": synthetic_front(30, 14), "nehvi": synthetic_front(20, 15)}
+    fronts["oracle"] = synthetic_front(80, 13)
     for algo, front in fronts.items():
         front["sim_speed_dev"] = front["sim_speed_dev"] / 2
         earlier = synthetic_front(40, 99)  # an earlier infill round: history, never merged
@@ -387,18 +388,18 @@ def test_pareto_stage_writes_its_outputs(tmp_path, monkeypatch):
         )
         rounds = [{"round": r, "n_simulations": 27 + 100 * r, "hv_ratio_to_oracle": 0.5 + 0.1 * r} for r in (0, 1)]
         Path(f"reports/optimise_{algo}.json").write_text(json.dumps({"n_simulations": 127, "rounds": rounds}))
-    Path("data/doe").mkdir()
-    for name, seed in (("doe", 5), ("heldout", 6)):  # the judged normalisation's designs
-        t = synthetic_front(60, seed)
-        t.rename(columns={c: c.removeprefix("sim_") for c in t.columns if c.startswith("sim_")}).to_parquet(
-            f"data/doe/{name}.parquet"
-        )
+    Path("data/judge").mkdir(parents=True)
+    t = synthetic_front(120, 5)  # the judged scale: the judged normalisation's designs
+    t.rename(columns={c: c.removeprefix("sim_") for c in t.columns if c.startswith("sim_")}).to_parquet(
+        "data/judge/reference.parquet"
+    )
     out = runner.invoke(app, ["pareto"])
     assert out.exit_code == 0, out.output
     report = json.loads(Path("reports/pareto.json").read_text())
     assert {s["judged_object"] for s in report["sources"].values()} == {report["judged_object"]} == {"archive"}
     assert report["counts"]["input"] == sum(len(f) for f in fronts.values())  # last rounds only
-    assert set(report["sources"]) == {"nsga3", "moead", "moga", "oracle"} and report["hv_reference"] == 1.1
+    assert set(report["sources"]) == {"nsga3", "moead", "moga", "parego", "nehvi", "oracle"}
+    assert report["hv_reference"] == 1.1
     assert report["sources"]["oracle"]["hv_ratio_to_oracle"] == 1.0
     assert sum(v["picked"] for v in report["sources"].values()) >= report["counts"]["picked"]
     norm = report["normalisation"]

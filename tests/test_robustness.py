@@ -32,6 +32,8 @@ def test_replicate_0_keeps_the_params_seeds_and_the_others_are_new_fixed_and_dis
         "nsga3": raw["optimise"]["algorithms"]["nsga3"]["seed"],
         "moead": raw["optimise"]["algorithms"]["moead"]["seed"],
         "moga": raw["optimise"]["algorithms"]["moga"]["seed"],
+        "parego": raw["optimise"]["bayes"]["parego"]["seed"],
+        "nehvi": raw["optimise"]["bayes"]["nehvi"]["seed"],
         "oracle": raw["optimise"]["oracle"]["seed"],
     }
     seeds = [replicate_seeds(raw, k) for k in range(1, 6)]
@@ -41,6 +43,7 @@ def test_replicate_0_keeps_the_params_seeds_and_the_others_are_new_fixed_and_dis
     assert replicate_seed(raw["robustness"]["seed"], "oracle", 3) == seeds[2]["oracle"]
     p = replicate_params(raw, 2)
     assert p["optimise"]["oracle"]["seed"] == seeds[1]["oracle"] and raw["optimise"]["oracle"]["seed"] == 11
+    assert p["optimise"]["bayes"]["nehvi"]["seed"] == seeds[1]["nehvi"]
     assert {k: v for k, v in p.items() if k != "optimise"} == {k: v for k, v in raw.items() if k != "optimise"}
     parse_params(p)  # still valid params
 

@@ -12,7 +12,8 @@ Sources (``params.benchmark.sources``):
 
 - ``nsga3``, ``moead``, ``moga`` -- the study's surrogate-assisted pairs (BNN, BNN, regressions) with the
   infill of ``params.optimise.infill``, rounds until the budget;
-- ``parego`` -- batch ParEGO on Gaussian processes (:mod:`hevlib.optimise.parego`), from the same DOE;
+- ``parego``, ``nehvi`` -- BoTorch's qLogNParEGO and qLogNEHVI (:mod:`hevlib.optimise.bayesopt`) with the
+  settings of ``params.optimise.bayes`` but the benchmark's budget, from the same DOE;
 - ``nsga3_direct``, ``moead_direct`` -- the same optimisers on the simulator at small populations;
 - ``lhs`` -- a seeded Latin hypercube, integers and gear sets repaired as the optimisers' are;
 - ``oracle`` -- ``params.optimise.oracle`` (the study's 200 x 500 on the simulator).
@@ -30,9 +31,11 @@ import pyarrow as pa
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES
 from hevlib.optimise.archive import ARCHIVE_SCHEMA, SimulationLog
+from hevlib.optimise.problem import RulesOnly
 from hevlib.params import BENCHMARK_SOURCES, AlgoParams, Params
 
-SAEA = ("nsga3", "moead", "moga", "parego")
+BAYES = ("parego", "nehvi")
+SAEA = ("nsga3", "moead", "moga", *BAYES)
 DIRECT = ("nsga3_direct", "moead_direct", "lhs")
 CEILING = ("oracle",)
 KIND = {**dict.fromkeys(SAEA, "saea"), **dict.fromkeys(DIRECT, "direct"), "oracle": "oracle"}
@@ -70,8 +73,8 @@ def run_source(ctx: RunContext, source: str, run: int) -> pa.Table:
     log = SimulationLog(ctx.simulate)
     if source in ("nsga3", "moead", "moga"):
         final = _saea(ctx, source, seed, log)
-    elif source == "parego":
-        final = _parego(ctx, seed, log)
+    elif source in BAYES:
+        final = _bayes(ctx, source, seed, log)
     elif source == "lhs":
         final = _lhs(ctx, seed, log)
     else:
@@ -119,29 +122,27 @@ def _saea(ctx: RunContext, source: str, seed: int, log: SimulationLog) -> str:
     return "last"
 
 
-def _parego(ctx: RunContext, seed: int, log: SimulationLog) -> str:
-    from hevlib.optimise.parego import ParegoSettings, parego
-    from hevlib.surrogates.gp import GaussianProcesses
+def _bayes(ctx: RunContext, source: str, seed: int, log: SimulationLog) -> str:
+    from hevlib.optimise.bayesopt import BayesSettings, bayes_search
 
-    cfg, p = ctx.cfg, ctx.cfg.benchmark.parego
-    space = cfg.design_space.space()
-    settings = ParegoSettings(p.batch, p.pool_random, p.pool_local, p.local_step, p.n_samples, p.rho, seed)
+    cfg = ctx.cfg
+    b = cfg.optimise.bayes.get(source)
+    if b is None:
+        raise ValueError(f"benchmark: source {source} needs optimise.bayes.{source} in params.yaml")
+    settings = BayesSettings(**b.model_dump(exclude={"budget", "seed"}), budget=cfg.benchmark.budget, seed=seed)
     log.record(ctx.X_doe, ctx.R_doe)
-
-    def fit(X, Y):
-        return GaussianProcesses(space, cfg.surrogate.bnn.log_targets, p.max_fit_rows, seed=seed).fit(X, Y)
-
-    parego(ctx.make_problem, fit, ctx.X_doe, ctx.R_doe, log, cfg.screen, cfg.benchmark.budget, settings, ctx.progress)
+    problem = ctx.make_problem(RulesOnly())
+    bayes_search(
+        settings, problem, cfg.design_space.space(), ctx.X_doe, ctx.R_doe, log, cfg.surrogate.bnn.log_targets,
+        ctx.progress,
+    )  # fmt: skip
     return "last"
 
 
 def _lhs(ctx: RunContext, seed: int, log: SimulationLog) -> str:
-    from hevlib.doe import lhs_designs
-    from hevlib.optimise.problem import _repaired
+    from hevlib.optimise.problem import admissible_lhs
 
-    X = lhs_designs(ctx.cfg.design_space.space(), ctx.cfg.benchmark.budget, seed)
-    problem = ctx.make_problem(_NoModel())
-    log(_repaired(problem, X))
+    log(admissible_lhs(ctx.make_problem(RulesOnly()), ctx.cfg.design_space.space(), ctx.cfg.benchmark.budget, seed))
     return "all"
 
 
@@ -166,13 +167,6 @@ def _direct(ctx: RunContext, source: str, seed: int, log: SimulationLog) -> np.n
     result = oracle(ctx.make_problem, settings, log, hv, progress=ctx.progress)
     pop = result.front.population
     return pop if pop is not None else result.front.X
-
-
-class _NoModel:
-    """A model that is never asked for objectives (LHS only uses the problem's repair)."""
-
-    def predict(self, X):  # pragma: no cover - never called
-        raise AssertionError("the LHS source evaluates no model")
 
 
 __all__ = [

@@ -5,8 +5,11 @@
   itself (:class:`SimulatorModel`); the integer repair.
 - :mod:`~hevlib.optimise.algorithms` -- NSGA-III, MOEA/D and the weighted-sum GA, each
   ``(problem, settings, progress, initial) -> Front``; :func:`optimise` dispatches by name.
-- :mod:`~hevlib.optimise.infill` -- the stage's work: :func:`oracle` (simulator in the loop) and
-  :func:`surrogate_assisted` (round 0 = the study's one-shot protocol, then infill rounds).
+- :mod:`~hevlib.optimise.bayesopt` -- Bayesian optimisation on BoTorch (qLogNParEGO, qLogNEHVI on a
+  reduced objective set) with a failure model and the exact rules as linear constraints.
+- :mod:`~hevlib.optimise.infill` -- the stage's work: :func:`oracle` (simulator in the loop),
+  :func:`bayes` (the BoTorch sources) and :func:`surrogate_assisted` (round 0 = the study's one-shot
+  protocol, then infill rounds).
 - :mod:`~hevlib.optimise.resim` -- re-simulating a front and its table (``data/pareto/<source>.parquet``).
 - :mod:`~hevlib.optimise.report` -- the hypervolume every source is judged by, surrogate error, reports.
 """
@@ -26,6 +29,7 @@ from hevlib.optimise.algorithms import (
 from hevlib.optimise.infill import (
     ROUND,
     StudyResult,
+    bayes,
     optimise_and_resimulate,
     oracle,
     select_candidates,
@@ -36,15 +40,18 @@ from hevlib.optimise.report import HvSettings, front_report, runtimes, surrogate
 from hevlib.optimise.resim import drop_stalled, front_schema, front_table, resimulate
 from hevlib.pareto import normalisation_dict, normalisation_from_dict, to_minimisation
 
-SOURCES = (*ALGORITHMS, "oracle")
+BAYES_SOURCES = ("parego", "nehvi")
+SOURCES = (*ALGORITHMS, *BAYES_SOURCES, "oracle")
 
 __all__ = [
     "ALGORITHMS",
+    "BAYES_SOURCES",
     "ROUND",
     "SOURCES",
     "Front",
     "HevProblem",
     "HvSettings",
+    "bayes",
     "IntegerRepair",
     "SimulatorModel",
     "StudyResult",

@@ -30,7 +30,7 @@ from pymoo.util.reference_direction import UniformReferenceDirectionFactory
 
 from hevlib.indicators import Normalisation
 from hevlib.optimise.moead import MOEADBounded
-from hevlib.optimise.problem import HevProblem, _evaluate_base, _integer_repair, _Reformulated, _repaired
+from hevlib.optimise.problem import NOT_EVALUATED, HevProblem, _evaluate_base, _integer_repair, _Reformulated, _repaired
 from hevlib.params import AlgoParams
 from hevlib.pareto import nondominated_mask
 
@@ -85,11 +85,13 @@ def _riesz_directions(n_obj: int, n_points: int, seed: int) -> np.ndarray:
 def estimate_normalisation(problem: Problem, n_samples: int, seed) -> Normalisation:
     """Ideal and nadir (minimisation form) of ``n_samples`` uniform designs (integers rounded) through the
     problem's model: the range normalisation MOEA/D's decomposition and the MOGA's weighted sums need
-    so that kilograms and SOC fractions weigh alike. Infeasible samples count too (they bound the range)."""
+    so that kilograms and SOC fractions weigh alike. Infeasible samples count too (they bound the range),
+    but not those that break an exact rule: they are never evaluated (``NOT_EVALUATED``)."""
     rng = np.random.default_rng(seed)
     X = problem.xl + rng.random((int(n_samples), problem.n_var)) * (problem.xu - problem.xl)
     F, _ = _evaluate_base(problem, _repaired(problem, X))
-    return Normalisation.from_points(F)
+    evaluated = np.all(F < NOT_EVALUATED, axis=1)
+    return Normalisation.from_points(F[evaluated] if np.any(evaluated) else F)
 
 
 def _settings_normalisation(problem: Problem, settings: AlgoParams) -> Normalisation:

@@ -2,6 +2,8 @@
 
 - :func:`oracle` -- any of the optimisers on the simulator itself (:class:`SimulatorModel`): the truth
   the surrogate method is measured against. Its front needs no re-simulation; every simulation counts.
+- :func:`bayes` -- the BoTorch sources (:mod:`hevlib.optimise.bayesopt`): every design they judge is
+  simulated, so their front is drawn from their archive as the oracle's is.
 - :func:`surrogate_assisted` -- model management (Jin 2011's "evolution control" by generations):
   round 0 is the study's one-shot protocol (the surrogate fitted on the DOE, a full search, the front
   re-simulated); each further round adds the re-simulated candidates to the training data, refits the
@@ -31,14 +33,14 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
+from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, DesignSpace
 from hevlib.indicators import Normalisation, hv_greedy_subset
 from hevlib.optimise.algorithms import Front, optimise
 from hevlib.optimise.archive import SimulationLog
-from hevlib.optimise.problem import HevProblem, SimulatorModel
+from hevlib.optimise.problem import HevProblem, RulesOnly, SimulatorModel
 from hevlib.optimise.report import HvSettings, front_report, runtimes
 from hevlib.optimise.resim import drop_stalled, front_schema, front_table, resimulate
-from hevlib.params import AlgoParams, InfillParams
+from hevlib.params import AlgoParams, BayesParams, InfillParams
 from hevlib.pareto import nondominated_mask, objective_matrix, passes_screen, pick_diverse, to_minimisation
 from hevlib.screen import speed_dev_max as speed_dev_rule
 
@@ -162,15 +164,9 @@ def oracle(
     model = SimulatorModel(log)
     problem = make_problem(model, stalled=model.stalled)
     found = optimise(problem, settings.algorithm, settings, progress)
-    archive = log.table(found.population if found.population is not None else found.X).to_pandas()
-    pool = archive_table(archive, make_problem(model))
-    pool = pool[pool["feasible"] & ~pool["sim_stalled"].astype(bool)]  # the constraints the search had
     n_pop = len(found.population) if found.population is not None else 0
-    table = archive_front([pool], max(settings.pop_size, n_pop), hv)
-    Y = table[[f"sim_{k}" for k in OBJECTIVES]].to_numpy(dtype=float)
-    front = dataclasses.replace(found, X=table[list(DESIGN_VARS)].to_numpy(dtype=float), F=Y, std=None)
-    table = table.drop(columns=[c for c in table.columns if c.endswith("_std")])
-    table.insert(0, ROUND, 0)
+    final = found.population if found.population is not None else found.X
+    archive, front, table = _archive_result(log, final, make_problem, found, max(settings.pop_size, n_pop), hv)
     report = front_report(front, table, hv, settings=settings)
     judged = archive_hypervolume(archive, hv)
     report.update(
@@ -178,6 +174,7 @@ def oracle(
         algorithm=settings.algorithm,
         surrogate=None,
         n_simulations=model.n_simulations,
+        n_rejected_before_simulation=problem.n_not_evaluated,
         n_stalled_dropped=0,
         archive=judged,
         hv_ratio_to_oracle=1.0,
@@ -186,6 +183,68 @@ def oracle(
     wall = time.perf_counter() - t0
     times = {**runtimes(found, 0.0), "algo": "oracle", "runtime_total_s": wall}
     return StudyResult(front, table, report, times, responses=archive, population=found.population)
+
+
+def _archive_result(
+    log: SimulationLog, final, make_problem: Callable[..., HevProblem], found: Front, max_size: int, hv: HvSettings
+) -> tuple[pd.DataFrame, Front, pd.DataFrame]:
+    """A source whose search simulated every design it judged (the oracle, the BoTorch sources): its
+    archive, and its front drawn from it (:func:`archive_front`), with the simulated objectives as ``F``."""
+    archive = log.table(final).to_pandas()
+    pool = archive_table(archive, make_problem(RulesOnly()))
+    pool = pool[pool["feasible"] & ~pool["sim_stalled"].astype(bool)]  # the constraints the search had
+    table = archive_front([pool], max_size, hv)
+    Y = table[[f"sim_{k}" for k in OBJECTIVES]].to_numpy(dtype=float)
+    front = dataclasses.replace(found, X=table[list(DESIGN_VARS)].to_numpy(dtype=float), F=Y, std=None)
+    table = table.drop(columns=[c for c in table.columns if c.endswith("_std")])
+    table.insert(0, ROUND, 0)
+    return archive, front, table
+
+
+def bayes(
+    name: str,
+    settings: BayesParams,
+    make_problem: Callable[..., HevProblem],
+    X_doe: np.ndarray,
+    R_doe: pd.DataFrame,
+    simulate: Callable[[np.ndarray], pd.DataFrame],
+    hv: HvSettings,
+    max_size: int,
+    log_targets=(),
+    hv_oracle: float | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> StudyResult:
+    """A BoTorch source (:func:`hevlib.optimise.bayesopt.bayes_search`) from the DOE until
+    ``settings.budget`` simulations (the DOE's included), judged like every source on its archive; its
+    front is drawn from the archive as the oracle's is (thinned to ``max_size``)."""
+    from hevlib.optimise.bayesopt import BayesSettings, bayes_search
+
+    t0 = time.perf_counter()
+    log = simulate if isinstance(simulate, SimulationLog) else SimulationLog(simulate)
+    log.record(X_doe, R_doe)
+    problem = make_problem(RulesOnly())
+    space = DesignSpace(problem.xl, problem.xu)
+    run = bayes_search(BayesSettings(**settings.model_dump()), problem, space, X_doe, R_doe, log, log_targets, progress)
+    found = Front(name, run.X, np.zeros((len(run.X), len(OBJECTIVES))), None, len(run.X), 0.0, len(run.X), 0)
+    archive, front, table = _archive_result(log, "last", make_problem, found, max_size, hv)
+    report = front_report(front, table, hv, settings=settings)
+    judged = archive_hypervolume(archive, hv)
+    report.update(
+        algo=name,
+        acquisition=settings.acquisition,
+        surrogate="gp",
+        objectives_modelled=list(run.objectives),
+        n_simulations=len(run.X),
+        n_doe=int(len(X_doe)),
+        n_rejected_before_simulation=run.n_rejected,
+        n_stalled_dropped=0,
+        archive=judged,
+        hv_ratio_to_oracle=_ratio(judged["hypervolume"], hv_oracle),
+        rounds=[_round_entry(0, len(run.X), report, hv_oracle, judged)],
+    )
+    wall = time.perf_counter() - t0
+    times = {"algo": name, "runtime_total_s": wall, "rounds": run.rounds}
+    return StudyResult(front, table, report, times, responses=archive)
 
 
 def archive_hypervolume(archive: pd.DataFrame, hv: HvSettings) -> dict:
@@ -385,6 +444,7 @@ __all__ = [
     "archive_front",
     "archive_hypervolume",
     "archive_table",
+    "bayes",
     "StudyResult",
     "optimise_and_resimulate",
     "oracle",

@@ -40,6 +40,8 @@ import numpy as np
 from pymoo.core.algorithm import Algorithm
 from pymoo.core.population import Population
 
+from hevlib.optimise.problem import NOT_EVALUATED
+
 DECOMPOSITIONS = ("tchebycheff", "pbi")
 
 
@@ -215,7 +217,9 @@ class MOEADBounded(Algorithm):
             self.z = np.minimum(self.z, FY[CVY <= 0].min(axis=0))
         z = self.z
         feas = CV <= 0
-        nadir = np.maximum((F[feas] if feas.sum() >= 2 else F).max(axis=0), z + 1e-12)
+        evaluated = np.all(F < NOT_EVALUATED, axis=1)  # not designs the exact rules kept from the simulator
+        pool = F[feas] if feas.sum() >= 2 else (F[evaluated] if evaluated.any() else F)
+        nadir = np.maximum(pool.max(axis=0), z + 1e-12)
         span = np.where(nadir - z > 1e-12, nadir - z, 1.0)
         g = aggregate((F - z) / span, W, self.decomposition, self.theta)
         FY_n = (FY - z) / span

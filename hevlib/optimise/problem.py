@@ -26,6 +26,9 @@ from hevlib.design import (
 from hevlib.indicators import Normalisation
 from hevlib.pareto import to_minimisation
 
+#: Objectives (minimisation form) of a design that breaks an exact rule and so was never evaluated.
+NOT_EVALUATED = 1e12
+
 
 class HevProblem(Problem):
     """Size the hybrid on a surrogate: 7 variables, 11 minimised objectives, the mass constraint and,
@@ -90,6 +93,7 @@ class HevProblem(Problem):
         self.speed_dev_max = speed_dev_max
         self.stalled = stalled
         self.integer_mask = INTEGER_MASK.copy()
+        self.n_not_evaluated = 0  # designs asked for that broke an exact rule (never predicted nor simulated)
         self.gear_sets = buildable_gear_sets(space) if buildable_gear_set else None
         if self.gear_sets is not None and len(self.gear_sets) == 0:
             raise ValueError("design_space: no buildable gear set (n_r, n_s) lies inside the bounds")
@@ -112,18 +116,15 @@ class HevProblem(Problem):
         """(n, n_ieq_constr) constraint values in ``constraint_names`` order; <= 0 is feasible. ``Y``: the
         predicted objectives of ``X`` when already known (the speed-deviation constraint reads them)."""
         X = np.asarray(X, dtype=float)
-        m = np.asarray(self.mass_kg(X), dtype=float).reshape(-1)
-        if m.shape != (len(X),) or not np.all(np.isfinite(m)):
-            raise ValueError(f"mass_kg: expected {len(X)} finite masses, got shape {m.shape}")
-        cols = [screen.mass_max(self.m_veh_max_kg).constraint({"m_veh": m})]
+        exact = self.exact_constraint(X)
+        cols = [exact[:, 0]]
         if self.speed_dev_max is not None:
             if Y is None:
                 Y = self._checked(self.surrogate.predict(X), len(X), "predict")
             speed = {"speed_dev": Y[:, OBJECTIVES.index("speed_dev")]}
             cols.append(screen.speed_dev_max(self.speed_dev_max).constraint(speed))
         if "gen_below_motor" in self.constraint_names:
-            powers = {k: X[:, DESIGN_VARS.index(k)] for k in ("p_gen_kw", "p_mot_kw")}
-            cols.append(screen.gen_below_motor().constraint(powers))
+            cols.append(exact[:, 1])
         if self.stalled is not None:
             st = np.asarray(self.stalled(X), dtype=bool).reshape(-1)
             if st.shape != (len(X),):
@@ -131,10 +132,49 @@ class HevProblem(Problem):
             cols.append(screen.not_stalled().constraint({"stalled": st}))
         return np.column_stack(cols)
 
+    #: The exact, cheap rules: known without a model, checked before any design is simulated or predicted.
+    EXACT = ("mass", "gen_below_motor")
+
+    def exact_constraint(self, X: np.ndarray) -> np.ndarray:
+        """(n, k) values of the exact rules (``EXACT`` the problem has, in ``constraint_names`` order)."""
+        X = np.asarray(X, dtype=float)
+        m = np.asarray(self.mass_kg(X), dtype=float).reshape(-1)
+        if m.shape != (len(X),) or not np.all(np.isfinite(m)):
+            raise ValueError(f"mass_kg: expected {len(X)} finite masses, got shape {m.shape}")
+        cols = [screen.mass_max(self.m_veh_max_kg).constraint({"m_veh": m})]
+        if "gen_below_motor" in self.constraint_names:
+            powers = {k: X[:, DESIGN_VARS.index(k)] for k in ("p_gen_kw", "p_mot_kw")}
+            cols.append(screen.gen_below_motor().constraint(powers))
+        return np.column_stack(cols)
+
+    def admissible(self, X: np.ndarray) -> np.ndarray:
+        """(n,) bool: designs that satisfy every exact rule -- the only ones any source may simulate."""
+        return np.all(self.exact_constraint(X) <= 0.0, axis=1)
+
     def _evaluate(self, x, out, *args, **kwargs):
-        Y = self._checked(self.surrogate.predict(x), len(x), "predict")
-        out["F"] = to_minimisation(Y)
-        out["G"] = self.constraint(x, Y)
+        """Objectives and constraints. On an expensive model (``model.expensive``: the simulator) a design
+        that breaks an exact rule is not evaluated: its constraints are the exact rules' values (the
+        model-based ones counted as met) and its objectives ``NOT_EVALUATED`` (every search compares an
+        infeasible design by its violation alone). A surrogate predicts every design, as before: its
+        searches simulate only their fronts, which meet the exact rules by construction."""
+        x = np.asarray(x, dtype=float)
+        if not getattr(self.surrogate, "expensive", False):
+            Y = self._checked(self.surrogate.predict(x), len(x), "predict")
+            out["F"] = to_minimisation(Y)
+            out["G"] = self.constraint(x, Y)
+            return
+        exact = self.exact_constraint(x)
+        ok = np.all(exact <= 0.0, axis=1)
+        self.n_not_evaluated += int(np.count_nonzero(~ok))
+        F = np.full((len(x), len(OBJECTIVES)), NOT_EVALUATED)
+        G = np.zeros((len(x), self.n_ieq_constr))
+        G[:, [self.constraint_names.index(k) for k in self.EXACT if k in self.constraint_names]] = exact
+        if np.any(ok):
+            Y = self._checked(self.surrogate.predict(x[ok]), int(np.count_nonzero(ok)), "predict")
+            F[ok] = to_minimisation(Y)
+            G[ok] = self.constraint(x[ok], Y)
+        out["F"] = F
+        out["G"] = G
 
     @staticmethod
     def _checked(Y, n: int, what: str) -> np.ndarray:
@@ -179,6 +219,20 @@ def _repaired(problem: Problem, X: np.ndarray) -> np.ndarray:
     return repair._do(problem, X) if repair is not None else X
 
 
+def admissible_lhs(problem: HevProblem, space: DesignSpace, n: int, seed: int) -> np.ndarray:
+    """``n`` designs of a seeded Latin hypercube (:func:`hevlib.doe.lhs_designs`), integers and gear sets
+    repaired, that meet every exact rule: the first ``n`` admissible rows of the smallest hypercube of
+    ``n * k`` designs that has them (designs that break a rule are never simulated, by any source)."""
+    from hevlib.doe import lhs_designs
+
+    for k in range(1, 65):
+        X = _repaired(problem, lhs_designs(space, n * k, seed))
+        X = X[problem.admissible(X)]
+        if len(X) >= n:
+            return X[:n]
+    raise ValueError(f"design_space: fewer than 1 in 64 designs meet the exact rules; cannot draw {n}")
+
+
 def _evaluate_base(problem: Problem, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(F, G)`` of ``problem`` at ``X``; ``G`` is (n, 0) for an unconstrained problem."""
     if problem.n_ieq_constr == 0:
@@ -214,6 +268,14 @@ class _Reformulated(Problem):
         out["F"] = F
 
 
+class RulesOnly:
+    """A model that is never asked for objectives: for a problem used only for its rules and repair (the
+    BoTorch sources, Latin-hypercube sampling, tabulating an archive's simulated objectives)."""
+
+    def predict(self, X):  # pragma: no cover - never called
+        raise AssertionError("this problem's model is never evaluated")
+
+
 class SimulatorModel:
     """The simulator as the optimisers' model (the oracle): ``predict(X)`` simulates ``X`` on the sizing
     cycle and returns the eleven objectives; ``stalled(X)`` the stall flags of the same run.
@@ -222,6 +284,9 @@ class SimulatorModel:
     responses are kept (keyed by the exact bytes of ``X``) and ``stalled`` of the same designs costs no
     second run. ``n_simulations`` counts every design simulated.
     """
+
+    #: Every evaluation is a simulation: :class:`HevProblem` checks the exact rules first.
+    expensive = True
 
     def __init__(self, simulate: Callable[[np.ndarray], pd.DataFrame]):
         self.simulate = simulate

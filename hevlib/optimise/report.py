@@ -7,7 +7,7 @@ import pandas as pd
 
 from hevlib.design import OBJECTIVES
 from hevlib.optimise.algorithms import Front
-from hevlib.params import AlgoParams
+from hevlib.params import AlgoParams, BayesParams
 from hevlib.pareto import HvSettings, spread
 
 
@@ -36,7 +36,7 @@ def surrogate_error(pred: np.ndarray, sim: np.ndarray, span: np.ndarray | None =
 
 
 def front_report(
-    front: Front, table: pd.DataFrame, hv: HvSettings, *, settings: AlgoParams, n_misleading: int = 3
+    front: Front, table: pd.DataFrame, hv: HvSettings, *, settings: AlgoParams | BayesParams, n_misleading: int = 3
 ) -> dict:
     """``reports/optimise_<algo>.json``: the figures of the issue's contract plus the settings used.
 
@@ -53,7 +53,7 @@ def front_report(
     n = len(table)
     return {
         "algo": front.algo,
-        "surrogate": settings.surrogate,
+        "surrogate": getattr(settings, "surrogate", None),
         "front_size": n,
         "n_evaluations": front.n_evaluations,
         "n_candidates": front.n_candidates,
