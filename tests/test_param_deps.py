@@ -60,7 +60,7 @@ CHANGES = {
     "screen.min_v_max_kmh": (120.0, {"judge", "oracle", "optimise", "bayes", "pareto", "validate"}),
     "validate.cycles": (["ftp", "hwfet"], {"validate"}),
     "optimise.infill.rounds": (3, {"optimise"}),
-    "optimise.bayes.nehvi.batch": (5, {"bayes"}),
+    "optimise.bayes.nehvi.batch": (3, {"bayes"}),
 }
 
 
