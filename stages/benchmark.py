@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+from functools import partial
 from pathlib import Path
 
 import typer
@@ -21,10 +22,9 @@ from stages.judge import REFERENCE
 RUNS_DIR = Path("data/benchmark/runs")
 ROOT = Path(__file__).resolve().parents[1]
 #: The code a stored run executes besides the simulator (whose source is in the simulation fingerprint): the
-#: benchmark's run drivers with everything they import (optimisers, surrogates, scoring), and the problem
-#: factory it shares with ``hev optimise``. An edit there runs every seed again; a report or plot edit does not.
-RUN_CODE_MODULES: tuple[str, ...] = ("hevlib.benchmark.runs",)
-RUN_CODE_FILES: tuple[str, ...] = ("stages/optimise.py",)
+#: benchmark's run drivers with everything they import (optimisers, surrogates, the sizing problem shared with
+#: ``hev optimise``). An edit there runs every seed again; a report or plot edit does not.
+RUN_CODE_MODULES: tuple[str, ...] = ("hevlib.benchmark.runs", "hevlib.optimise.problem")
 REPORT_DIR = Path("reports/benchmark")
 
 
@@ -37,7 +37,7 @@ def _settings_fingerprint(cfg, source: str, root: Path = ROOT) -> str:
     blob = json.dumps(
         {
             "sim": simulation_fingerprint(cfg),
-            "code": closure_hash(root, RUN_CODE_MODULES, RUN_CODE_FILES),
+            "code": closure_hash(root, RUN_CODE_MODULES),
             **cfg.model_dump(mode="json", include={"design_space", "surrogate", "optimise", "screen", "doe"}),
             "benchmark": cfg.benchmark.model_dump(mode="json", exclude={"sources", "seeds", "oracle_seeds"}),
             "source": source,
@@ -67,8 +67,8 @@ def benchmark_run_stage(
     from hevlib.benchmark.runs import RUN_SCHEMA, RunContext, n_runs, run_seed, run_source
     from hevlib.design import DESIGN_VARS, RESPONSES
     from hevlib.io import read_table, write_parquet
+    from hevlib.optimise.problem import sizing_problem
     from hevlib.params import BENCHMARK_SOURCES
-    from stages.optimise import problem_factory
 
     cfg = params_from(params)
     if source not in BENCHMARK_SOURCES:
@@ -98,7 +98,7 @@ def benchmark_run_stage(
     for k in todo:
         t0 = time.perf_counter()
         with progress_callback(f"benchmark {source}: run {k + 1}/{n_runs(cfg, source)}") as cb:
-            ctx = RunContext(cfg, simulate, problem_factory(cfg, sim), X_doe, R_doe, cb)
+            ctx = RunContext(cfg, simulate, partial(sizing_problem, cfg, sim.mass_kg), X_doe, R_doe, cb)
             table = run_source(ctx, source, k)
         wall = time.perf_counter() - t0
         out = run_path(source, k, runs_dir)

@@ -18,21 +18,13 @@ REFERENCE = Path("data/judge/reference.parquet")
 @stage
 def judge_stage(params: str = PARAMS_OPTION) -> None:
     """Simulate params.optimise.judge.n admissible Latin-hypercube designs; write data/judge/reference.parquet."""
-    from hevlib.optimise.problem import HevProblem, RulesOnly, admissible_lhs
+    from hevlib.optimise.problem import RulesOnly, admissible_lhs, sizing_problem
     from hevlib.pareto import passes_screen, simulated_as_front
 
     cfg = params_from(params)
     j = cfg.optimise.judge
     sim, cycle = sizing_setup(cfg)
-    rules = cfg.screen if cfg.optimise.apply_screen_rules else None
-    problem = HevProblem(  # the exact rules and the gear-set repair of the problem every source solves
-        RulesOnly(),
-        cfg.design_space.space(),
-        sim.mass_kg,
-        cfg.baseline.conventional.test_mass_kg,
-        gen_below_motor=bool(rules and rules.gen_below_motor),
-        buildable_gear_set=bool(rules and rules.buildable_gear_set),
-    )
+    problem = sizing_problem(cfg, sim.mass_kg, RulesOnly())  # the exact rules and gear-set repair every source uses
     X = admissible_lhs(problem, cfg.design_space.space(), j.n, j.seed)
     with progress_callback(f"judge: {len(X)} designs on {cycle.name}") as cb:
         table = doe.simulate_designs(sim, X, "judge", cycle, batch_size=cfg.doe.batch_size, progress=cb)

@@ -5,6 +5,7 @@ oracle (the simulator in the loop)."""
 from __future__ import annotations
 
 import json
+from functools import partial
 from pathlib import Path
 
 import typer
@@ -21,28 +22,6 @@ FRONTS_DIR = Path("data/pareto")
 REPORTS_DIR = Path("reports")
 ORACLE_REPORT = REPORTS_DIR / "optimise_oracle.json"
 LOGS_DIR = Path("logs")  # wall times and other machine-dependent figures (git-ignored, not metrics)
-
-
-def problem_factory(cfg, sim):
-    """``make_problem(model, stalled=None)``: the one sizing problem every source solves."""
-    from hevlib.optimise import HevProblem
-
-    space = cfg.design_space.space()
-    rules = cfg.screen if cfg.optimise.apply_screen_rules else None
-
-    def make_problem(model, stalled=None):
-        return HevProblem(
-            model,
-            space,
-            sim.mass_kg,
-            cfg.baseline.conventional.test_mass_kg,
-            speed_dev_max=rules.speed_dev_max if rules else None,
-            gen_below_motor=bool(rules and rules.gen_below_motor),
-            buildable_gear_set=bool(rules and rules.buildable_gear_set),
-            stalled=stalled,
-        )
-
-    return make_problem
 
 
 def _oracle_report() -> dict:
@@ -65,6 +44,7 @@ def optimise_stage(
     from hevlib.doe import training_data
     from hevlib.optimise import HvSettings, oracle, surrogate_assisted
     from hevlib.optimise.archive import ARCHIVE_SCHEMA, SimulationLog
+    from hevlib.optimise.problem import sizing_problem
     from hevlib.pareto import judged_normalisation
 
     cfg = params_from(params)
@@ -78,7 +58,7 @@ def optimise_stage(
             f"(configured: {', '.join(configured) or 'none'}; or use oracle)"
         )
     sim, cycle = sizing_setup(cfg)
-    make_problem = problem_factory(cfg, sim)
+    make_problem = partial(sizing_problem, cfg, sim.mass_kg)
 
     def simulate(X):
         return sim.run(X, cycle, vehicle="hybrid", batch_size=cfg.doe.batch_size)

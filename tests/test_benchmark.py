@@ -239,12 +239,13 @@ def test_responses_cover_the_run_schema():
 
 def test_a_stored_run_is_current_only_while_the_code_it_ran_is_unchanged(tmp_path):
     """The benchmark reuses a run on disk only if its fingerprint matches, and the fingerprint carries the run
-    code: an edit to an optimiser or to the shared problem factory runs the seeds again, a plot edit does not."""
+    code: an edit to an optimiser or to the sizing problem shared with `hev optimise` runs the seeds again, a plot
+    edit does not."""
     import shutil
     from pathlib import Path
 
     from hevlib.codedeps import closure_hash
-    from stages.benchmark import RUN_CODE_FILES, RUN_CODE_MODULES
+    from stages.benchmark import RUN_CODE_MODULES
 
     repo = Path(__file__).resolve().parents[1]
     root = tmp_path / "repo"
@@ -252,7 +253,7 @@ def test_a_stored_run_is_current_only_while_the_code_it_ran_is_unchanged(tmp_pat
         shutil.copytree(repo / package, root / package, ignore=shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc"))
 
     def fingerprint() -> str:
-        return closure_hash(root, RUN_CODE_MODULES, RUN_CODE_FILES)
+        return closure_hash(root, RUN_CODE_MODULES)
 
     def edit(rel: str) -> None:
         path = root / rel
@@ -265,5 +266,5 @@ def test_a_stored_run_is_current_only_while_the_code_it_ran_is_unchanged(tmp_pat
     edit("hevlib/optimise/infill.py")
     after_optimiser = fingerprint()
     assert after_optimiser != before
-    edit("stages/optimise.py")
+    edit("hevlib/optimise/problem.py")
     assert fingerprint() != after_optimiser

@@ -23,8 +23,8 @@ What a design must satisfy enters in three ways, the same for every source (:met
 - the **gear-set rule**: the planetary set is one ordinal discrete variable, the index into the buildable
   sets sorted by ratio ``n_r / n_s`` (:class:`MixedSpace`), so every candidate is buildable; ``n_bat`` is
   a discrete variable too. Both are searched by BoTorch's mixed-space optimiser
-  ``optimize_acqf_mixed_alternating`` (discrete local search alternating with L-BFGS-B on the continuous
-  variables);
+  ``optimize_acqf_mixed_alternating`` (discrete local search alternating with gradient steps on the continuous
+  variables: SLSQP, because the exact rules are linear constraints);
 - **failures and the screen's speed rule** weight the acquisition by their posterior probability: the
   speed deviation is one of the modelled objectives (an outcome constraint of the MC acquisition); a
   stall is modelled by :class:`~hevlib.surrogates.gp.FeasibilityGP` (fitted once a design has stalled),

@@ -219,6 +219,23 @@ def _repaired(problem: Problem, X: np.ndarray) -> np.ndarray:
     return repair._do(problem, X) if repair is not None else X
 
 
+def sizing_problem(cfg, mass_kg: Callable, model, stalled=None) -> HevProblem:
+    """The one sizing problem every source solves, on ``model``: the design space, the conventional car's
+    test mass, and the screen's rules as constraints where ``optimise.apply_screen_rules`` (``cfg``: the
+    validated params; ``mass_kg``: the simulator's test-mass model)."""
+    rules = cfg.screen if cfg.optimise.apply_screen_rules else None
+    return HevProblem(
+        model,
+        cfg.design_space.space(),
+        mass_kg,
+        cfg.baseline.conventional.test_mass_kg,
+        speed_dev_max=rules.speed_dev_max if rules else None,
+        gen_below_motor=bool(rules and rules.gen_below_motor),
+        buildable_gear_set=bool(rules and rules.buildable_gear_set),
+        stalled=stalled,
+    )
+
+
 def admissible_lhs(problem: HevProblem, space: DesignSpace, n: int, seed: int) -> np.ndarray:
     """``n`` designs of a seeded Latin hypercube (:func:`hevlib.doe.lhs_designs`), integers and gear sets
     repaired, that meet every exact rule: the first ``n`` admissible rows of the smallest hypercube of

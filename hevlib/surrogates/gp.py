@@ -5,13 +5,13 @@
 scikit-learn style ``fit`` / ``predict`` surrogate interface (:mod:`hevlib.surrogates.base`):
 
 - one independent GP per objective, batched in one multi-output ``SingleTaskGP`` (BoTorch's default
-  Matern 5/2 ARD kernel with its dimension-scaled length-scale prior), inputs normalised to the unit
+  RBF ARD kernel with Hvarfner et al.'s dimension-scaled log-normal length-scale prior), inputs normalised to the unit
   cube over the design space (``Normalize``; integers relaxed), outcomes standardised (``Standardize``);
 - targets in BoTorch's maximisation form: ``-sense * t(y)``, ``t`` the log of the heavy-tailed objectives
   (:class:`~hevlib.surrogates.transform.LogTargets`, the BNN's rule), identity for the others, so that
   "larger is better" for every output (:meth:`GaussianProcesses.to_model_space`);
-- hyperparameters by ``fit_gpytorch_mll`` (L-BFGS-B on the exact marginal likelihood) on every design
-  given: no subset.
+- hyperparameters by ``fit_gpytorch_mll`` (L-BFGS-B on the exact marginal likelihood, all outputs jointly) on every
+  design given: no subset.
 
 :class:`FeasibilityGP` is the failure model: a GP on +1 (the design stalled: fell behind the trace and
 did not finish the sizing cycle) / -1 labels of every simulated design, with a small fixed noise
