@@ -28,6 +28,9 @@ KMH = 1.0 / 3.6  # m/s per km/h
 
 #: Raw speed columns we understand, with the factor that turns them into m/s.
 RAW_SPEED_UNITS = {"speed_kmh": KMH, "speed_mps": 1.0, "speed_mph": 0.44704}
+#: Grade columns a raw cycle may carry (factor to rise/run), and the steepest grade accepted (params' range).
+RAW_GRADE_UNITS = {"grade_pct": 0.01, "grade": 1.0}
+MAX_GRADE = 0.30
 
 CYCLE_SCHEMA = pa.schema(
     [
@@ -154,7 +157,9 @@ class Cycle:
             raise CycleError(f"{path}: {err}") from None
 
 
-def _check_trace(where: str, time_s: np.ndarray, speed_mps: np.ndarray, *, first_line: int | None = None) -> None:
+def _check_trace(
+    where: str, time_s: np.ndarray, speed_mps: np.ndarray, *, first_line: int | None = None, speed_column="speed"
+) -> None:
     """Equal lengths, >= 2 points, finite values, strictly increasing time, non-negative speed.
 
     Positions are reported as file lines (``first_line`` = line of the first value) or array indices.
@@ -167,7 +172,7 @@ def _check_trace(where: str, time_s: np.ndarray, speed_mps: np.ndarray, *, first
         raise CycleError(f"{where}: time and speed lengths differ")
     if len(time_s) < 2:
         raise CycleError(f"{where}: needs at least two points")
-    for label, arr in (("time_s", time_s), ("speed", speed_mps)):
+    for label, arr in (("time_s", time_s), (speed_column, speed_mps)):
         if not np.all(np.isfinite(arr)):
             i = int(np.argmin(np.isfinite(arr)))
             raise CycleError(f"{where}: {label} is missing, NaN or infinite at {at(i)}")
@@ -179,8 +184,18 @@ def _check_trace(where: str, time_s: np.ndarray, speed_mps: np.ndarray, *, first
         raise CycleError(f"{where}: negative speed at {at(i)} (t={time_s[i]:g} s)")
 
 
-def read_raw_cycle(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
-    """Read a raw cycle CSV (``time_s`` and one known speed column); return (time_s, speed_mps)."""
+class RawTrace(NamedTuple):
+    """A raw cycle file's columns in SI: time (s), speed (m/s), and grade (rise/run; None without a column)."""
+
+    time_s: np.ndarray
+    speed_mps: np.ndarray
+    grade: np.ndarray | None
+
+
+def read_raw_trace(path: str | Path) -> RawTrace:
+    """Read a raw cycle CSV: ``time_s``, one speed column with its unit in the name (``RAW_SPEED_UNITS``) and
+    optionally one grade column (``RAW_GRADE_UNITS``). A bad file raises one line naming the file, the column
+    and the line."""
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"{path}: cycle file missing")
@@ -191,15 +206,39 @@ def read_raw_cycle(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if "time_s" not in df.columns:
         raise CycleError(f"{path}: missing column 'time_s'")
     speed_cols = [c for c in df.columns if c in RAW_SPEED_UNITS]
-    if not speed_cols:
+    if len(speed_cols) != 1:
         other = [c for c in df.columns if c.startswith("speed")]
+        if len(speed_cols) > 1:
+            raise CycleError(f"{path}: {len(speed_cols)} speed columns ({', '.join(speed_cols)}); give one")
         hint = f" (unknown unit in {other[0]!r})" if other else ""
         raise CycleError(f"{path}: missing speed column, expected one of {', '.join(RAW_SPEED_UNITS)}{hint}")
+    grade_cols = [c for c in df.columns if c in RAW_GRADE_UNITS]
+    unknown = [c for c in df.columns if c.startswith("grade") and c not in RAW_GRADE_UNITS]
+    if unknown or len(grade_cols) > 1:
+        what = f"unknown unit in {unknown[0]!r}" if unknown else f"{len(grade_cols)} grade columns"
+        raise CycleError(f"{path}: {what}, expected at most one of {', '.join(RAW_GRADE_UNITS)}")
     col = speed_cols[0]
     time_s = pd.to_numeric(df["time_s"], errors="coerce").to_numpy(dtype=float)
     speed = pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float) * RAW_SPEED_UNITS[col]
-    _check_trace(str(path), time_s, speed, first_line=2)
-    return time_s, speed
+    _check_trace(str(path), time_s, speed, first_line=2, speed_column=col)
+    grade = None
+    if grade_cols:
+        gcol = grade_cols[0]
+        grade = pd.to_numeric(df[gcol], errors="coerce").to_numpy(dtype=float) * RAW_GRADE_UNITS[gcol]
+        bad = ~np.isfinite(grade) | (np.abs(grade) > MAX_GRADE)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise CycleError(
+                f"{path}: {gcol} at line {i + 2} is {str(df[gcol].iloc[i])!r}: not a number within "
+                f"+-{MAX_GRADE / RAW_GRADE_UNITS[gcol]:g}"
+            )
+    return RawTrace(time_s, speed, grade)
+
+
+def read_raw_cycle(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """``(time_s, speed_mps)`` of a raw cycle CSV (:func:`read_raw_trace`)."""
+    trace = read_raw_trace(path)
+    return trace.time_s, trace.speed_mps
 
 
 def resample(time_s: np.ndarray, speed_mps: np.ndarray, step_s: float) -> tuple[np.ndarray, np.ndarray]:
@@ -227,26 +266,32 @@ def load_cycle(
     *,
     name: str,
     step_s: float = 1.0,
-    grade: float = 0.0,
+    grade: float | None = None,
     key_off_intervals_s=(),
     expected_points: int | None = None,
 ) -> Cycle:
-    """Raw CSV -> checked, resampled :class:`Cycle` on a constant grade (rise/run).
+    """Raw CSV -> checked, resampled :class:`Cycle`.
 
-    ``key_off_intervals_s`` are in the raw file's time; the cycle's time starts at 0. ``expected_points``
-    (from ``cycles.yaml``): the number of data rows the file must have, so a truncated file is refused.
+    ``grade`` (rise/run): a constant grade; None takes the file's grade column (resampled like the speed),
+    or a flat road where it has none; a file with a grade column and a constant ``grade`` is refused (which
+    one?). ``key_off_intervals_s`` are in the raw file's time; the cycle's time starts at 0.
+    ``expected_points`` (from ``cycles.yaml``): the number of data rows the file must have, so a truncated
+    file is refused.
     """
-    time_s, speed = read_raw_cycle(path)
+    time_s, speed, raw_grade = read_raw_trace(path)
     if expected_points is not None and len(time_s) != expected_points:
         raise CycleError(
             f"{path}: {len(time_s)} data rows, but cycles.yaml gives {expected_points} points "
             f"(truncated or padded file)"
         )
+    if raw_grade is not None and grade is not None:
+        raise CycleError(f"{path}: has a grade column and a constant grade is given too (grade_pct); give one")
     try:
         grid, v = resample(time_s, speed, step_s)
     except CycleError as err:
         raise CycleError(f"{path}: {err}") from None
-    return Cycle(name, grid - grid[0], v, np.full(len(grid), float(grade)), key_on_mask(grid, key_off_intervals_s))
+    g = np.full(len(grid), float(grade or 0.0)) if raw_grade is None else np.interp(grid, time_s, raw_grade)
+    return Cycle(name, grid - grid[0], v, g, key_on_mask(grid, key_off_intervals_s))
 
 
 def _metadata_entries(raw_dir: str | Path):
@@ -298,7 +343,7 @@ def build_cycles(cfg: CyclesParams) -> dict[str, Cycle]:
             raw / spec.file,
             name=name,
             step_s=cfg.step_s,
-            grade=spec.grade_pct / 100.0,
+            grade=None if spec.grade_pct is None else spec.grade_pct / 100.0,
             key_off_intervals_s=key_off.get(spec.file, ()),
             expected_points=points.get(spec.file),
         )

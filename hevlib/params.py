@@ -41,7 +41,8 @@ Seed = Annotated[int, Field(ge=0, le=2**32 - 1)]
 # --------------------------------------------------------------------------------------------- cycles
 class CycleSpec(_Strict):
     file: str = Field(pattern=r"^[A-Za-z0-9_.-]+\.csv$", description="raw CSV in cycles.raw_dir")
-    grade_pct: float = Field(ge=-30, le=30, description="road grade in percent (rise/run x 100)")
+    # road grade in percent (rise/run x 100), constant over the cycle; null: the file's grade column (or flat)
+    grade_pct: Annotated[float, Field(ge=-30, le=30)] | None = None
 
 
 #: A cycle key names its output file (data/cycles/<name>.parquet).

@@ -13,6 +13,7 @@ from hevlib.cycles import (
     CycleError,
     load_cycle,
     read_raw_cycle,
+    read_raw_trace,
     resample,
     write_cycles,
 )
@@ -30,8 +31,12 @@ def _csv(tmp_path, text: str, name: str = "CYC_BAD.csv"):
         ("time_s,speed_kmh\n0,0\n2,10\n1,20\n3,0\n", r"time is not strictly increasing at line 4 \(t=1 s\)"),
         ("time_s,speed_kmh\n0,0\n1,10\n1,20\n2,0\n", r"time is not strictly increasing at line 4"),
         ("time_s,speed_kmh\n0,0\n1,-5\n2,0\n", r"negative speed at line 3 \(t=1 s\)"),
-        ("time_s,speed_kmh\n0,0\n1,\n2,0\n", r"speed is missing, NaN or infinite at line 3"),
-        ("time_s,speed_kmh\n0,0\n1,nan\n2,0\n", r"speed is missing, NaN or infinite at line 3"),
+        ("time_s,speed_kmh\n0,0\n1,\n2,0\n", r"speed_kmh is missing, NaN or infinite at line 3"),
+        ("time_s,speed_kmh\n0,0\n1,nan\n2,0\n", r"speed_kmh is missing, NaN or infinite at line 3"),
+        ("time_s,speed_kmh,speed_mph\n0,0,0\n1,1,1\n", r"2 speed columns \(speed_kmh, speed_mph\); give one"),
+        ("time_s,speed_kmh,grade_deg\n0,0,0\n1,1,0\n", r"unknown unit in 'grade_deg'"),
+        ("time_s,speed_kmh,grade_pct\n0,0,0\n1,1,x\n", r"grade_pct at line 3 is 'x': not a number within \+-30"),
+        ("time_s,speed_kmh,grade\n0,0,0\n1,1,0.5\n", r"grade at line 3 is '0.5': not a number within \+-0.3"),
         ("time_s,speed_kmh\n0,0\n,1\n2,0\n", r"time_s is missing, NaN or infinite at line 3"),
         ("time_s\n0\n1\n", r"missing speed column, expected one of speed_kmh, speed_mps, speed_mph"),
         ("t,speed_kmh\n0,0\n1,1\n", r"missing column 'time_s'"),
@@ -43,7 +48,7 @@ def _csv(tmp_path, text: str, name: str = "CYC_BAD.csv"):
 def test_malformed_cycle_gives_one_line_error_naming_file(tmp_path, text, match):
     path = _csv(tmp_path, text)
     with pytest.raises(CycleError, match=match) as info:
-        read_raw_cycle(path)
+        load_cycle(path, name="bad")
     msg = str(info.value)
     assert msg.startswith(str(path)) and "\n" not in msg
 
@@ -156,3 +161,36 @@ def test_from_parquet_errors_name_the_file(tmp_path):
     bad.write_text("not parquet")
     with pytest.raises(CycleError, match="bad.parquet: not a readable Parquet file"):
         Cycle.from_parquet(bad)
+
+
+def test_a_grade_column_is_resampled_with_the_speed(tmp_path):
+    """A user's cycle may carry its own grade (percent or rise/run), resampled like the speed; a constant grade
+    given as well is refused (which one would the user mean?)."""
+    path = _csv(tmp_path, "time_s,speed_kmh,grade_pct\n0,0,0\n2,36,4\n4,36,-2\n", name="CYC_HILL.csv")
+    trace = read_raw_trace(path)
+    np.testing.assert_allclose(trace.grade, [0.0, 0.04, -0.02])
+    cyc = load_cycle(path, name="hill", step_s=1.0)
+    np.testing.assert_allclose(cyc.grade, [0.0, 0.02, 0.04, 0.01, -0.02])
+    np.testing.assert_allclose(cyc.speed_mps, [0, 5, 10, 10, 10])
+    with pytest.raises(CycleError, match=r"CYC_HILL.csv: has a grade column and a constant grade is given too"):
+        load_cycle(path, name="hill", grade=0.0)
+    flat = _csv(tmp_path, "time_s,speed_mps\n0,0\n1,1\n", name="CYC_FLAT.csv")
+    assert read_raw_trace(flat).grade is None
+    np.testing.assert_allclose(load_cycle(flat, name="flat").grade, 0.0)  # no column, no constant: flat
+
+
+def test_wltc_class_3b_matches_gtr_15(root):
+    """WLTC class 3b (UN GTR 15 Annex 1, from FASTSim's resources): 1 800 s, 23.266 km, 131.3 km/h, and the
+    four phases' distances as GTR 15 tabulates them."""
+    raw = root / "data" / "raw" / "cycles"
+    meta = yaml.safe_load((raw / "cycles.yaml").read_text())["cycles"]["CYC_WLTC3B"]
+    cyc = load_cycle(raw / "CYC_WLTC3B.csv", name="wltc", expected_points=meta["points"])
+    assert cyc.duration_s == 1800.0 and cyc.n_steps == 1801
+    assert cyc.distance_m == pytest.approx(23_266.0, abs=1.0)
+    assert cyc.speed_mps.max() * 3.6 == pytest.approx(131.3, abs=1e-9)
+    kmh = cyc.speed_mps * 3.6
+    ends = {"low": (0, 589), "medium": (589, 1022), "high": (1022, 1477), "extra_high": (1477, 1800)}
+    for phase, (a, b) in ends.items():
+        assert kmh[a] == 0.0 and kmh[b] == 0.0, phase  # every phase starts and ends at rest
+        km = float(np.sum(cyc.speed_mps[a:b])) / 1000.0
+        assert km == pytest.approx(meta["phase_distances_km"][phase], abs=5e-4), phase
