@@ -77,7 +77,7 @@ def worker(name: str) -> float:
                 "baseline": p.baseline.model_copy(update={"components_dir": str(ROOT / p.baseline.components_dir)}),
             }
         )
-        sim = Simulator(study_library(p.baseline, ROOT / "data/raw/paper"), p)
+        sim = Simulator(study_library(p.baseline), p)
         cycle = build_cycles(p.cycles)[p.cycles.sizing]
         X = lhs_designs(sim.space, 2000, 1)
         sim.run(X[:50], cycle)  # kernels loaded from the cache

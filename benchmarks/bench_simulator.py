@@ -84,9 +84,7 @@ def _setup(params_path: Path = ROOT / "params.yaml", **sim_update):
             "sim": params.sim.model_copy(update=sim_update),
         }
     )
-    return Simulator(study_library(params.baseline, ROOT / "data" / "raw" / "paper"), params), build_cycles(
-        params.cycles
-    )
+    return Simulator(study_library(params.baseline), params), build_cycles(params.cycles)
 
 
 def _cold_compile() -> dict:
@@ -100,8 +98,7 @@ def _cold_compile() -> dict:
         "p = load_params(sys.argv[1] + '/params.yaml');"
         "p = p.model_copy(update={'baseline': p.baseline.model_copy("
         "update={'components_dir': sys.argv[1] + '/' + p.baseline.components_dir})});"
-        "paper = sys.argv[1] + '/data/raw/paper';"
-        "warm_up(p, paper) if sys.argv[2] == 'serial' else timed_warm_up(p, paper);"
+        "warm_up(p) if sys.argv[2] == 'serial' else timed_warm_up(p);"
         "print(time.perf_counter() - t0)"
     )
     out = {}

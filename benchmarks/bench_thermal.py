@@ -53,7 +53,7 @@ def main() -> None:
     p = p.model_copy(
         update={"baseline": p.baseline.model_copy(update={"components_dir": str(ROOT / p.baseline.components_dir)})}
     )
-    sim = Simulator(study_library(p.baseline, ROOT / "data" / "raw" / "paper"), p)
+    sim = Simulator(study_library(p.baseline), p)
     X = sim.library.thermal["hybrid"]
     t_init = start_temperatures("cold", p.sim.ambient_c, X.t_stat_c)
     _run(2, 3, X, t_init)  # compile

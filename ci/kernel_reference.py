@@ -63,7 +63,7 @@ def main() -> None:
             "baseline": p.baseline.model_copy(update={"components_dir": str(ROOT / p.baseline.components_dir)}),
         }
     )
-    sim = Simulator(study_library(p.baseline, ROOT / "data" / "raw" / "paper"), p)
+    sim = Simulator(study_library(p.baseline), p)
     table = responses(sim, designs(sim.space), build_cycles(p.cycles))
     OUT.parent.mkdir(parents=True, exist_ok=True)
     table.to_parquet(OUT, index=False)

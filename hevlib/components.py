@@ -891,63 +891,73 @@ def _accessory(d: dict) -> Accessory:
     return Accessory(float(d["electrical_load_w"]), float(d["mechanical_load_w"]))
 
 
-_BODY_KEYS = {f.name for f in dataclasses.fields(Body)} - {"name"}
+@dataclass(frozen=True)
+class CarFiles:
+    """One car's body and wheel files, with the values that replace the files' (``Body`` / ``Wheel`` field
+    names, SI)."""
+
+    body: str
+    wheel: str
+    body_values: dict = dataclasses.field(default_factory=dict)
+    wheel_values: dict = dataclasses.field(default_factory=dict)
+
+    def load(self, raw: Path) -> tuple[Body, Wheel]:
+        body, wheel = load_body(raw / self.body), load_wheel(raw / self.wheel)
+        return dataclasses.replace(body, **self.body_values), dataclasses.replace(wheel, **self.wheel_values)
 
 
-def _with_overrides(body: Body, wheel: Wheel, overrides: dict | None) -> tuple[Body, Wheel]:
-    """Apply Table-1 style overrides (Body field names, plus ``wheel_radius_m``) to a body and its wheel."""
-    if not overrides:
-        return body, wheel
-    body = dataclasses.replace(body, **{k: float(v) for k, v in overrides.items() if k in _BODY_KEYS})
-    if "wheel_radius_m" in overrides:
-        wheel = dataclasses.replace(wheel, radius_m=float(overrides["wheel_radius_m"]))
-    return body, wheel
+@dataclass(frozen=True)
+class LibraryFiles:
+    """Which component file is which part (file names in the component directory; params.yaml's
+    ``baseline`` group, :func:`hevlib.sizing.library_files`)."""
+
+    conventional: CarFiles
+    prius: CarFiles
+    engine_conventional: str
+    gearbox: str
+    accessory_conventional: str
+    control_conventional: str
+    engine_hybrid: str
+    motor: str
+    generator: str
+    control_hybrid: str
+    transmission: str
+    accessory_hybrid: str
+    battery: str
+    exhaust: str
 
 
 def load_library(
     raw_dir: str | Path,
+    files: LibraryFiles,
     *,
-    battery: str = "li_ion",
     battery_temperature_c: float = 41.0,
-    conventional_body: dict | None = None,
     gear_ratios: list[float] | None = None,
     conventional_idle_rpm: float = 800.0,
-    prius_body: dict | None = None,
 ) -> ComponentLibrary:
-    """Load every component of the study from ``raw_dir`` (ADVISOR YAML).
-
-    ``conventional_body`` / ``prius_body`` override body and wheel numbers with the study's Table 1
-    (keys as :func:`read_baseline_table` returns them). The conventional car is the EV1 body with the
-    small-car wheel in ADVISOR terms (Cd 0.19, 2.038 m2, CG 0.4 m, r 0.282 m). Its glider mass is
-    ADVISOR's EV1 value here; :func:`hevlib.sizing.with_conventional_glider` replaces it by the one
-    the conventional car's test mass implies.
+    """Load every component of the study from ``raw_dir`` (ADVISOR YAML), each part from the file ``files``
+    names, bodies and wheels with ``files``' values in place of the files' own. The conventional car's glider
+    mass is its body file's here; :func:`hevlib.sizing.with_conventional_glider` replaces it by the one the
+    conventional car's test mass implies.
     """
     raw = Path(raw_dir)
     if not raw.is_dir():
         raise FileNotFoundError(f"{raw}: component directory missing")
     notes: list[str] = []
-    ptc = _read_yaml(raw / "PTC_PRIUS_JPN.yaml")
-    tx = _read_yaml(raw / "TX_PRIUS_CVT_JPN.yaml")
-    gb = _read_yaml(raw / "TX_5SPD_SI.yaml")
-    ex = _read_yaml(raw / "EX_SI.yaml")
-    acc_h, acc_c = _read_yaml(raw / "ACC_PRIUS_JPN.yaml"), _read_yaml(raw / "ACC_CONV.yaml")
-    doc = _need(tx, "from_advisor_documentation", raw / "TX_PRIUS_CVT_JPN.yaml")
-    reg = _need(gb, "loss_regression", raw / "TX_5SPD_SI.yaml")
-    body_c, wheel_c = _with_overrides(
-        load_body(raw / "VEH_EV1.yaml"), load_wheel(raw / "WH_SMCAR.yaml"), conventional_body
-    )
-    body_p, wheel_p = _with_overrides(
-        load_body(raw / "VEH_PRIUS_JPN.yaml"), load_wheel(raw / "WH_PRIUS_JPN.yaml"), prius_body
-    )
-    battery_files = {"li_ion": "ESS_LI7_temp.yaml", "nimh": "ESS_NIMH6.yaml"}
-    if battery not in battery_files:
-        raise ValueError(f"battery: {battery!r} is not one of {', '.join(battery_files)}")
-    battery_file = battery_files[battery]
+    ptc = _read_yaml(raw / files.control_hybrid)
+    tx = _read_yaml(raw / files.transmission)
+    gb = _read_yaml(raw / files.gearbox)
+    ex = _read_yaml(raw / files.exhaust)
+    acc_h, acc_c = _read_yaml(raw / files.accessory_hybrid), _read_yaml(raw / files.accessory_conventional)
+    doc = _need(tx, "from_advisor_documentation", raw / files.transmission)
+    reg = _need(gb, "loss_regression", raw / files.gearbox)
+    body_c, wheel_c = files.conventional.load(raw)
+    body_p, wheel_p = files.prius.load(raw)
     ratios = np.array(gear_ratios if gear_ratios is not None else gb["overall_gear_ratios"], dtype=float)
-    engine_hybrid = load_engine(raw / "FC_PRIUS_JPN.yaml", notes)
-    engine_conventional = load_engine(raw / "FC_SI63_emis.yaml", notes)
-    motor = load_machine(raw / "MC_PRIUS_JPN.yaml", generator=False, notes=notes)
-    generator = load_machine(raw / "GC_PRIUS_JPN.yaml", generator=True, notes=notes)
+    engine_hybrid = load_engine(raw / files.engine_hybrid, notes)
+    engine_conventional = load_engine(raw / files.engine_conventional, notes)
+    motor = load_machine(raw / files.motor, generator=False, notes=notes)
+    generator = load_machine(raw / files.generator, generator=True, notes=notes)
     # PTC_CONV rules: idle = the configured idle speed (ADVISOR: at least 800 rpm and enough for twice the
     # accessory load, which any engine of this size meets at 800 rpm); launch = max(w_max / 5, 1.5 idle)
     idle = float(conventional_idle_rpm) * RPM
@@ -956,7 +966,7 @@ def load_library(
         engine_conventional=engine_conventional,
         motor=motor,
         generator=generator,
-        battery=load_battery(raw / battery_file, battery_temperature_c),
+        battery=load_battery(raw / files.battery, battery_temperature_c),
         body_conventional=body_c,
         wheel_conventional=wheel_c,
         body_prius=body_p,
@@ -982,7 +992,7 @@ def load_library(
             coolant_warmup_temperature_c=float(ptc["coolant_warmup_temperature_c"]),
         ),
         gearbox=Gearbox(
-            name="TX_5SPD_SI",
+            name=Path(files.gearbox).stem,
             ratios=_ro(ratios),
             mass_kg=float(gb["transmission_mass_kg"]),
             loss_coefficients=_ro(
@@ -999,11 +1009,13 @@ def load_library(
         accessory_hybrid=_accessory(acc_h),
         accessory_conventional=_accessory(acc_c),
         exhaust_kg_per_kw=float(ex["mass_rule"]["exhaust_system_kg_per_engine_kw"]),
-        thermal_hybrid=load_engine_thermal(raw / "FC_PRIUS_JPN.yaml"),
-        thermal_conventional=load_engine_thermal(raw / "FC_SI63_emis.yaml"),
-        catalyst=load_catalyst(raw / "EX_SI.yaml"),
+        thermal_hybrid=load_engine_thermal(raw / files.engine_hybrid),
+        thermal_conventional=load_engine_thermal(raw / files.engine_conventional),
+        catalyst=load_catalyst(raw / files.exhaust),
         conventional_idle_rad_s=idle,
         conventional_launch_rad_s=max(engine_conventional.max_speed_rad_s / 5.0, 1.5 * idle),
-        conventional_control=load_conventional_control(raw / "PTC_CONV.yaml", engine_conventional.max_speed_rad_s),
-        meta={"raw_dir": str(raw), "battery_file": battery_file, "normalisation": notes},
+        conventional_control=load_conventional_control(
+            raw / files.control_conventional, engine_conventional.max_speed_rad_s
+        ),
+        meta={"raw_dir": str(raw), "battery_file": files.battery, "normalisation": notes},
     )

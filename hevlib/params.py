@@ -65,7 +65,58 @@ class CyclesParams(_Strict):
 
 
 # ------------------------------------------------------------------------------------------- baseline
+#: A component file in ``baseline.components_dir`` (ADVISOR data as YAML). No file name lives in the code: the
+#: study's choices are params.yaml's, and the components stage lists every key below as a DVC dep.
+ComponentFile = Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+\.ya?ml$")]
+
+
+class _PartValues(_Strict):
+    def values(self) -> dict[str, float]:
+        """The values that replace the file's (the keys given, not null)."""
+        return {k: float(v) for k, v in self.model_dump(exclude={"file"}).items() if v is not None}
+
+
+class BodyParams(_PartValues):
+    """A body: its file (ADVISOR ``VEH_*``), and values replacing the file's; null keeps the file's."""
+
+    file: ComponentFile
+    drag_coefficient: Annotated[float, Field(gt=0, le=2)] | None = None
+    frontal_area_m2: Annotated[float, Field(gt=0.3, le=15)] | None = None
+    cg_height_m: Annotated[float, Field(gt=0, le=3)] | None = None
+    wheelbase_m: Annotated[float, Field(gt=0.5, le=10)] | None = None
+    front_weight_fraction: Annotated[float, Field(gt=0, lt=1)] | None = None  # static share on the driven axle
+    cargo_mass_kg: Annotated[float, Field(ge=0, le=3000)] | None = None
+
+
+class WheelParams(_PartValues):
+    """Wheels and tyres: their file (ADVISOR ``WH_*``: braking split, axle losses), and values replacing the file's."""
+
+    file: ComponentFile
+    radius_m: Annotated[float, Field(gt=0.1, le=1.5)] | None = None  # rolling radius
+    rolling_resistance: Annotated[float, Field(gt=0, le=0.1)] | None = None  # coefficient
+    inertia_kg_m2: Annotated[float, Field(ge=0, le=100)] | None = None  # all wheels, tyres and axles
+
+
+class HybridKitParams(_Strict):
+    """The hybrid system every design scales and the stock Prius carries (files in ``components_dir``)."""
+
+    engine: ComponentFile  # fuel, emission and thermal maps (ADVISOR FC_*)
+    motor: ComponentFile  # MC_*
+    generator: ComponentFile  # GC_*
+    control: ComponentFile  # the power-split control and engine operating line (PTC_*)
+    transmission: ComponentFile  # the planetary set and final drive (TX_*)
+    accessories: ComponentFile  # ACC_*
+
+
 class ConventionalParams(_Strict):
+    """The conventional car the study converts: each part a component file, and values with units."""
+
+    body: BodyParams
+    wheel: WheelParams
+    engine: ComponentFile  # fuel, emission and thermal maps (ADVISOR FC_*), scaled to p_eng_kw
+    gearbox: ComponentFile  # mass and loss regression (TX_*); ratios from gear_ratios
+    accessories: ComponentFile  # ACC_*
+    control: ComponentFile  # shift and clutch logic (PTC_*)
     p_eng_kw: Annotated[float, Field(gt=10, le=300)] = 70.0
     test_mass_kg: Annotated[float, Field(gt=500, le=4000)] = 1195.0
     gear_ratios: list[Pos] = [13.195, 7.3486, 4.9126, 3.4916, 2.5984]
@@ -85,6 +136,10 @@ class ConventionalParams(_Strict):
 
 
 class PriusParams(_Strict):
+    """The stock Prius, the hybrid reference: its body and wheels, and the sizes of the hybrid kit's parts."""
+
+    body: BodyParams
+    wheel: WheelParams
     p_eng_kw: Pos = 43.0
     p_mot_kw: Pos = 31.0
     p_gen_kw: Pos = 15.0
@@ -103,10 +158,19 @@ class PriusParams(_Strict):
 
 class BaselineParams(_Strict):
     components_dir: str = "data/raw/components"
-    battery: Literal["li_ion", "nimh"] = "li_ion"
+    battery: Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$")]  # one of batteries
+    batteries: dict[str, ComponentFile] = Field(min_length=1)  # name -> battery module file (ADVISOR ESS_*)
     battery_temperature_c: float = Field(41.0, ge=-20, le=60)
-    conventional: ConventionalParams = ConventionalParams()
-    prius: PriusParams = PriusParams()
+    exhaust: ComponentFile  # catalyst and exhaust-system mass rule, both cars (EX_*)
+    hybrid: HybridKitParams
+    conventional: ConventionalParams
+    prius: PriusParams
+
+    @model_validator(mode="after")
+    def _known_battery(self):
+        if self.battery not in self.batteries:
+            raise ValueError(f"battery: {self.battery!r} is not one of batteries ({', '.join(self.batteries)})")
+        return self
 
 
 # --------------------------------------------------------------------------------------- simulation
@@ -483,7 +547,7 @@ class ValidateParams(_Strict):
 
 class Params(_Strict):
     cycles: CyclesParams
-    baseline: BaselineParams = BaselineParams()
+    baseline: BaselineParams
     sim: SimParams = SimParams()
     pms: PmsParams = PmsParams()
     design_space: DesignSpaceParams = DesignSpaceParams()

@@ -50,7 +50,8 @@ def set_args(overrides: dict) -> list[str]:
     ``$(hev profile NAME)`` splits into the right words)."""
     args = []
     for key, value in overrides.items():
-        text = yaml.safe_dump(value, default_flow_style=True).strip().removesuffix("...").strip()
+        text = yaml.safe_dump(value, default_flow_style=True, width=float("inf"), sort_keys=False)
+        text = text.strip().removesuffix("...").strip()
         text = text.replace(", ", ",").replace(": ", ":")
         if any(ch.isspace() for ch in text):
             raise ParamsError(f"profile: {key}: value {text!r} must not contain spaces")

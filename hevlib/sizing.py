@@ -20,11 +20,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from hevlib.components import (
+    CarFiles,
     ComponentLibrary,
     EngineMap,
+    LibraryFiles,
     MachineMap,
     load_library,
-    read_baseline_table,
     read_paper_row,
 )
 from hevlib.design import DESIGN_VARS
@@ -286,16 +287,35 @@ def components_report(
     }
 
 
-def study_library(baseline: BaselineParams, paper_dir: str | Path = PAPER_DIR) -> ComponentLibrary:
-    """The component library of the study: ADVISOR data, Table 1 bodies, the conventional car's glider."""
-    table1 = read_baseline_table(Path(paper_dir) / "table1_baseline_vehicles.csv")
+def library_files(baseline: BaselineParams) -> LibraryFiles:
+    """Which component file is which part, from params' ``baseline`` group (the one place the files are named)."""
+    conv, prius, kit = baseline.conventional, baseline.prius, baseline.hybrid
+    return LibraryFiles(
+        conventional=CarFiles(conv.body.file, conv.wheel.file, conv.body.values(), conv.wheel.values()),
+        prius=CarFiles(prius.body.file, prius.wheel.file, prius.body.values(), prius.wheel.values()),
+        engine_conventional=conv.engine,
+        gearbox=conv.gearbox,
+        accessory_conventional=conv.accessories,
+        control_conventional=conv.control,
+        engine_hybrid=kit.engine,
+        motor=kit.motor,
+        generator=kit.generator,
+        control_hybrid=kit.control,
+        transmission=kit.transmission,
+        accessory_hybrid=kit.accessories,
+        battery=baseline.batteries[baseline.battery],
+        exhaust=baseline.exhaust,
+    )
+
+
+def study_library(baseline: BaselineParams) -> ComponentLibrary:
+    """The component library of params' ``baseline``: each part from its file, bodies and wheels with the
+    params' values, the conventional car's glider from its test mass."""
     conv = baseline.conventional
     lib = load_library(
         baseline.components_dir,
-        battery=baseline.battery,
+        library_files(baseline),
         battery_temperature_c=baseline.battery_temperature_c,
-        conventional_body=table1["conventional"],
-        prius_body=table1["prius"],
         gear_ratios=list(conv.gear_ratios),
         conventional_idle_rpm=conv.idle_speed_rpm,
     )

@@ -14,7 +14,6 @@ import os
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from multiprocessing import get_context
-from pathlib import Path
 
 from hevlib.params import Params
 
@@ -63,7 +62,7 @@ def compile_times(events) -> list[CompileTime]:
     return sorted(rows, key=lambda r: (-r.self_s, r.function))
 
 
-def warm_up_kind(params: Params, paper_dir: str | Path, vehicle: str) -> list[CompileTime]:
+def warm_up_kind(params: Params, vehicle: str) -> list[CompileTime]:
     """Compile (and cache) the kernels of one vehicle kind on a two-step cycle, as
     :func:`hevlib.sim.simulator.warm_up` does for every kind, with numba's compile events recorded."""
     import numpy as np
@@ -73,7 +72,7 @@ def warm_up_kind(params: Params, paper_dir: str | Path, vehicle: str) -> list[Co
     from hevlib.sim.simulator import Simulator
     from hevlib.sizing import study_library
 
-    sim = Simulator(study_library(params.baseline, paper_dir), params)
+    sim = Simulator(study_library(params.baseline), params)
     with install_recorder("numba:compile") as recorder:
         sim.run_raw(None, Cycle("warm-up", np.arange(3.0), np.array([0.0, 1.0, 0.0]), np.zeros(3)), vehicle)
     return compile_times(recorder.buffer)
@@ -94,18 +93,16 @@ def merged(parts: list[list[CompileTime]]) -> list[CompileTime]:
     return sorted(rows, key=lambda r: (-r.self_s, r.function))
 
 
-def timed_warm_up(
-    params: Params, paper_dir: str | Path = "data/raw/paper", processes: int | None = None
-) -> list[CompileTime]:
+def timed_warm_up(params: Params, processes: int | None = None) -> list[CompileTime]:
     """Every kind of :data:`KINDS` compiled and cached by :func:`warm_up_kind`, on up to ``processes``
     processes side by side (default: one per kind, at most the CPU count; 1: in this process, one after the
     other). The processes inherit this one's ``NUMBA_CACHE_DIR`` (:func:`hevlib.numba_cache_dir`), so they fill
     the cache every stage reads. Returns the :func:`merged` compile times."""
     n = min(len(KINDS), processes or os.cpu_count() or 1)
     if n <= 1:
-        return merged([warm_up_kind(params, paper_dir, kind) for kind in KINDS])
+        return merged([warm_up_kind(params, kind) for kind in KINDS])
     with ProcessPoolExecutor(n, mp_context=get_context("spawn")) as pool:
-        return merged(list(pool.map(warm_up_kind, [params] * len(KINDS), [str(paper_dir)] * len(KINDS), KINDS)))
+        return merged(list(pool.map(warm_up_kind, [params] * len(KINDS), KINDS)))
 
 
 def compile_table(times: list[CompileTime], top: int = 12) -> list[str]:

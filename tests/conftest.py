@@ -75,7 +75,7 @@ def params() -> Params:
 @pytest.fixture(scope="session")
 def lib(params: Params) -> ComponentLibrary:
     """The library the ``components`` stage builds (ADVISOR data, Table 1 bodies, derived glider)."""
-    return study_library(params.baseline, RAW / "paper")
+    return study_library(params.baseline)
 
 
 @pytest.fixture(scope="session")

@@ -17,7 +17,8 @@ from hevlib.components import (
     read_baseline_table,
     read_paper_row,
 )
-from hevlib.sizing import scale_engine
+from hevlib.params import load_params, parse_params
+from hevlib.sizing import library_files, scale_engine, study_library
 
 
 def _raw(raw, name: str) -> dict:
@@ -123,11 +124,55 @@ def test_battery_and_bodies(lib):
     assert lib.conventional_launch_rad_s == pytest.approx(1200 * RPM)  # PTC_CONV value for 800 rpm idle
 
 
-def test_nimh_battery_is_selectable(raw):
-    nimh = load_library(raw / "components", battery="nimh").battery
+def test_nimh_battery_is_selectable(raw, params):
+    baseline = params.baseline.model_copy(update={"battery": "nimh"})
+    nimh = load_library(raw / "components", library_files(baseline)).battery
     assert nimh.name == "ESS_NIMH6" and nimh.temperature_c == 25.0 and nimh.capacity_ah == 6.0
-    with pytest.raises(ValueError, match="battery: 'lead'"):
-        load_library(raw / "components", battery="lead")
+    data = params.model_dump(mode="json")
+    data["baseline"]["battery"] = "lead"
+    lead = r"^params.yaml: baseline.battery: 'lead' is not one of batteries \(li_ion, nimh\)$"
+    with pytest.raises(ValueError, match=lead):
+        parse_params(data)
+
+
+def test_the_study_cars_values_are_table_1s(params, raw):
+    """params.yaml's body and wheel values of both cars are the study's Table 1 (its provenance), the rest
+    of each part is its ADVISOR file's."""
+    t1 = read_baseline_table(raw / "paper" / "table1_baseline_vehicles.csv")
+    for car in ("conventional", "prius"):
+        given = getattr(params.baseline, car)
+        values = {**given.body.values(), "wheel_radius_m": given.wheel.radius_m}
+        assert values == {k: t1[car][k] for k in values}, car
+        assert given.test_mass_kg == t1[car]["test_mass_kg"] and given.p_eng_kw == t1[car]["p_eng_kw"]
+
+
+def test_another_car_is_params_alone(raw, params):
+    """Another car's body and wheels from params: the values replace the files', the rest stays the file's."""
+    conv = params.baseline.conventional
+    other = conv.model_copy(
+        update={
+            "body": conv.body.model_copy(update={"drag_coefficient": 0.30, "frontal_area_m2": 2.3}),
+            "wheel": conv.wheel.model_copy(update={"radius_m": 0.33, "rolling_resistance": 0.0095}),
+        }
+    )
+    lib = study_library(params.baseline.model_copy(update={"conventional": other}))
+    ref = study_library(params.baseline)
+    assert (lib.body_conventional.drag_coefficient, lib.body_conventional.frontal_area_m2) == (0.30, 2.3)
+    assert (lib.wheel_conventional.radius_m, lib.wheel_conventional.rolling_resistance) == (0.33, 0.0095)
+    assert lib.body_conventional.cg_height_m == ref.body_conventional.cg_height_m == 0.4
+    share = lib.wheel_conventional.brake_driveline_share
+    assert share.tolist() == ref.wheel_conventional.brake_driveline_share.tolist()
+    assert lib.body_prius == ref.body_prius
+
+
+def test_no_component_file_is_named_in_the_code(root):
+    """Which file is which part is params.yaml's: no component file name in hevlib/ or stages/ code."""
+    names = {p.name for p in (root / "data" / "raw" / "components").glob("*.yaml")}
+    for folder in ("hevlib", "stages"):
+        for path in (root / folder).rglob("*.py"):
+            text = path.read_text()
+            named = sorted(n for n in names if f'"{n}"' in text or f"'{n}'" in text)
+            assert not named, f"{path.relative_to(root)} names {named}"
 
 
 def test_best_efficiency_line_minimises_fuel(lib):
@@ -197,7 +242,7 @@ def test_load_errors_name_the_file(lib, tmp_path):
         ComponentLibrary.load(tmp_path)
 
 
-def test_raw_component_errors_name_the_file(tmp_path, raw):
+def test_raw_component_errors_name_the_file(tmp_path, raw, root):
     with pytest.raises(FileNotFoundError, match="FC_NONE.yaml: no such component file"):
         load_engine(tmp_path / "FC_NONE.yaml")
     bad = tmp_path / "FC_BAD.yaml"
@@ -206,7 +251,7 @@ def test_raw_component_errors_name_the_file(tmp_path, raw):
     with pytest.raises(ValueError, match="FC_BAD.yaml: missing key 'fuel_map_g_per_s'"):
         load_engine(bad)
     with pytest.raises(FileNotFoundError, match="component directory missing"):
-        load_library(tmp_path / "nowhere")
+        load_library(tmp_path / "nowhere", library_files(load_params(root / "params.yaml").baseline))
 
 
 def test_study_tables(tmp_path, raw):
@@ -244,3 +289,26 @@ def test_study_tables(tmp_path, raw):
         read_baseline_table(bad)
     with pytest.raises(ValueError, match="l27_assignment.csv: no row with exp = 99"):
         read_paper_row(raw / "paper" / "l27_assignment.csv", "exp", 99)
+
+
+def test_a_bad_vehicle_file_stops_check_in_one_line(tmp_path, root, monkeypatch):
+    """A body file without its drag coefficient: `hev check` (the pipeline's first stage) names file and key."""
+    import shutil
+
+    from typer.testing import CliRunner
+
+    from stages.cli import app
+
+    components = tmp_path / "components"
+    shutil.copytree(root / "data" / "raw" / "components", components)
+    body = yaml.safe_load((components / "VEH_EV1.yaml").read_text())
+    del body["drag_coefficient"]
+    (components / "VEH_MYCAR.yaml").write_text(yaml.safe_dump(body))
+    data = yaml.safe_load((root / "params.yaml").read_text())
+    data["baseline"]["components_dir"] = str(components)
+    data["baseline"]["conventional"]["body"] = {"file": "VEH_MYCAR.yaml", "frontal_area_m2": 2.3}
+    (tmp_path / "params.yaml").write_text(yaml.safe_dump(data))
+    monkeypatch.chdir(root)  # the cycles and DOE inputs of the repository; check fails before writing
+    result = CliRunner().invoke(app, ["check", "--params", str(tmp_path / "params.yaml")])
+    assert result.exit_code == 1
+    assert result.stderr.strip() == f"error: {components / 'VEH_MYCAR.yaml'}: missing key 'drag_coefficient'"

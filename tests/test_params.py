@@ -44,7 +44,10 @@ BAD = [
     ("cycles.step_s", 0.0, "cycles.step_s: Input should be greater than 0"),
     ("cycles.cycles.udds.grade_pct", 45.0, "cycles.cycles.udds.grade_pct: Input should be less than or equal to 30"),
     ("baseline.conventional.test_mass_kg", -5, "baseline.conventional.test_mass_kg: Input should be greater than 500"),
-    ("baseline.battery", "lead_acid", "baseline.battery: Input should be 'li_ion' or 'nimh'"),
+    ("baseline.battery", "lead_acid", "baseline.battery: 'lead_acid' is not one of batteries (li_ion, nimh)"),
+    ("baseline.conventional.body.file", "VEH_EV1.txt", "baseline.conventional.body.file: String should match pattern"),
+    ("baseline.conventional.body.drag_coefficient", -0.3, "baseline.conventional.body.drag_coefficient: Input should"),
+    ("baseline.conventional.wheel.spokes", 5, "baseline.conventional.wheel.spokes: unknown key"),
     ("cycles.sizing", "wltp", "cycles.sizing: 'wltp' is not one of cycles.cycles"),
     ("baseline.prius.n_s", 80, "baseline.prius.n_s: 80 sun teeth must be fewer than n_r = 78"),
     ("cycles.cycles.udds.file", "udds.txt", "cycles.cycles.udds.file: String should match pattern"),
@@ -103,7 +106,7 @@ def test_stage_stops_on_missing_inputs_and_writes_nothing(raw_params, tmp_path, 
     assert result.stderr.strip() == "error: data/raw/cycles: cycle directory missing (params cycles.raw_dir)"
     result = CliRunner().invoke(app, ["components"])
     assert result.exit_code == 1
-    assert "table1_baseline_vehicles.csv: no such file" in result.stderr
+    assert result.stderr.strip() == "error: data/raw/components: component directory missing"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["params.yaml"]
 
 

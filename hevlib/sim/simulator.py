@@ -451,7 +451,7 @@ def _batch_responses(sim: Simulator, item: tuple[np.ndarray, Cycle, bool]) -> pd
     return sim.drive(sim.vehicle(X, "hybrid"), cycle, charge_balanced=charge_balanced)[1]
 
 
-def warm_up(params: Params, paper_dir: str | Path = "data/raw/paper") -> None:
+def warm_up(params: Params) -> None:
     """Compile (and cache on disk) every numba kernel the stages call, on a two-step cycle.
 
     numba caches each kernel per argument types; the stages always pass the same types (float64
@@ -459,7 +459,7 @@ def warm_up(params: Params, paper_dir: str | Path = "data/raw/paper") -> None:
     """
     from hevlib.sizing import study_library
 
-    sim = Simulator(study_library(params.baseline, paper_dir), params)
+    sim = Simulator(study_library(params.baseline), params)
     cycle = Cycle("warm-up", np.arange(3.0), np.array([0.0, 1.0, 0.0]), np.zeros(3))
     for vehicle in ("prius", "conventional"):  # the hybrid kernel (any design) and the conventional one
         sim.run_raw(None, cycle, vehicle)
