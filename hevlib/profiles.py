@@ -19,16 +19,22 @@ PROFILES_DIR = Path("profiles")
 
 
 def apply_overrides(params: dict, overrides: dict) -> dict:
-    """A copy of the raw ``params`` mapping with each dotted-key override set (keys must exist)."""
+    """A copy of the raw ``params`` mapping with each dotted-key override set. A key must exist, except with
+    a leading ``+`` (DVC's and Hydra's "append"): then it is new, in a mapping that exists (a cycle of
+    ``cycles.cycles``, a start state of ``sim.start``)."""
     out = copy.deepcopy(params)
     for dotted, value in overrides.items():
-        node, parts = out, str(dotted).split(".")
+        append = str(dotted).startswith("+")
+        node, parts = out, str(dotted).removeprefix("+").split(".")
         for i, part in enumerate(parts[:-1]):
             if not isinstance(node, dict) or part not in node:
                 raise ParamsError(f"profile: {'.'.join(parts[: i + 1])}: no such params key")
             node = node[part]
-        if not isinstance(node, dict) or parts[-1] not in node:
-            raise ParamsError(f"profile: {dotted}: no such params key")
+        if not isinstance(node, dict):
+            raise ParamsError(f"profile: {dotted}: {'.'.join(parts[:-1])} is not a mapping")
+        if append == (parts[-1] in node):
+            what = "already exists (drop the +)" if append else "no such params key (+ adds one)"
+            raise ParamsError(f"profile: {dotted}: {what}")
         node[parts[-1]] = value
     return out
 
