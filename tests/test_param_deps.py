@@ -56,7 +56,7 @@ CHANGES = {
     "sim.soc_min": (0.44, {"baselines", "doe", "heldout", "judge", "oracle", "optimise", "bayes", "validate"}),
     "baseline.prius.n_r": (80, {"baselines", "validate"}),
     "baseline.conventional.gear_ratios": ([13.2, 7.35, 4.91, 3.49, 2.6], {"components", "baselines", "validate"}),
-    "baseline.conventional.body.drag_coefficient": (0.3, {"components", "validate"}),  # validate reads all of baseline
+    "baseline.conventional.body.drag_coefficient": (0.3, {"components", "baselines", "validate"}),
     "screen.seed": (7, {"pareto"}),
     "screen.min_v_max_kmh": (120.0, {"judge", "oracle", "optimise", "bayes", "pareto", "validate"}),
     "validate.cycles": (["ftp", "hwfet"], {"validate"}),
