@@ -128,7 +128,7 @@ RAW_CASES = {
     "text in a cycle's number": (
         "data/raw/cycles/CYC_HWFET.csv",
         lambda t: "".join(ln if i != 9 else "8.0,abc\n" for i, ln in enumerate(t.splitlines(True))),
-        "CYC_HWFET.csv: speed is missing, NaN or infinite at line 10",
+        "CYC_HWFET.csv: speed_kmh is missing, NaN or infinite at line 10",
     ),
     "text in a component number": (
         "data/raw/components/FC_PRIUS_JPN.yaml",

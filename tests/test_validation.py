@@ -228,10 +228,8 @@ def test_summary_reports_the_study_table_and_downsizing():
     assert "## Robustness check: hwfet" in text and "moga-0" in text and "conventional" in text
 
 
-def test_prius_design_follows_params_order():
-    from hevlib.params import PriusParams
-
-    np.testing.assert_array_equal(prius_design(PriusParams()), [43.0, 31.0, 15.0, 3.93, 25, 78, 30])
+def test_prius_design_follows_params_order(params):
+    np.testing.assert_array_equal(prius_design(params.baseline.prius), [43.0, 31.0, 15.0, 3.93, 25, 78, 30])
 
 
 # --------------------------------------------------------------------------------------- stage
