@@ -22,14 +22,14 @@ from stages.judge import REFERENCE
 RUNS_DIR = Path("data/benchmark/runs")
 ROOT = Path(__file__).resolve().parents[1]
 #: The code a stored run executes besides the simulator (whose source is in the simulation fingerprint): the
-#: benchmark's run drivers with everything they import (optimisers, surrogates, the sizing problem shared with
-#: ``hev optimise``). An edit there runs every seed again; a report or plot edit does not.
-RUN_CODE_MODULES: tuple[str, ...] = ("hevlib.benchmark.runs", "hevlib.optimise.problem")
+#: benchmark's run drivers with everything they import (optimisers, surrogates, and through them the sizing problem
+#: shared with ``hev optimise``). An edit there runs every seed again; a report or plot edit does not.
+RUN_CODE_MODULES: tuple[str, ...] = ("hevlib.benchmark.runs",)
 REPORT_DIR = Path("reports/benchmark")
 
 
 def _settings_fingerprint(cfg, source: str, root: Path = ROOT) -> str:
-    """What a stored run depends on: the simulator, the code that runs it (``RUN_CODE_*``), the study's
+    """What a stored run depends on: the simulator, the code that runs it (``RUN_CODE_MODULES``), the study's
     optimiser and surrogate settings, the screen, and this source's benchmark settings."""
     from hevlib.codedeps import closure_hash
     from hevlib.doe import simulation_fingerprint

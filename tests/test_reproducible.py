@@ -9,6 +9,7 @@ uncommitted changes it is skipped. The fast profile against `ci/fast_baseline` i
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import subprocess
 import sys
@@ -24,7 +25,12 @@ def _git(*args: str, cwd: Path = REPO) -> str:
     return subprocess.run(["git", *args], cwd=cwd, capture_output=True, text=True, check=True).stdout
 
 
-def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path):
+IDENTITY = {"NAME": "hev-sizing test", "EMAIL": "test@hev-sizing.invalid"}
+
+
+def _fresh_clone(tmp_path: Path) -> tuple[Path, dict]:
+    """A clone of the committed tree and the environment its commands run in (this venv's tools, the clone's
+    code, a git identity for `dvc exp run`); skips on uncommitted changes, which a clone would not hold."""
     if _git("status", "--porcelain", "--untracked-files=no").strip():
         pytest.skip("uncommitted changes: the committed dvc.lock does not describe this tree")
     clone = tmp_path / "clone"
@@ -34,7 +40,13 @@ def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path
         "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
         "DVC_NO_ANALYTICS": "1",
         "PYTHONPATH": str(clone),
+        **{f"GIT_{who}_{what}": val for who in ("AUTHOR", "COMMITTER") for what, val in IDENTITY.items()},
     }
+    return clone, env
+
+
+def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path):
+    clone, env = _fresh_clone(tmp_path)
     out = subprocess.run(["dvc", "repro"], cwd=clone, env=env, capture_output=True, text=True, timeout=1800)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     status = _git("status", "--porcelain", cwd=clone)
@@ -51,7 +63,6 @@ def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path
 
     # the README's way back from an experiment: git restores params, dvc.lock and reports; DVC the pictures
     plots = _digests(clone / "reports/plots")
-    env.update({f"GIT_{who}_{what}": val for who in ("AUTHOR", "COMMITTER") for what, val in IDENTITY.items()})
     exp = subprocess.run(
         ["dvc", "exp", "run", "-S", "screen.n_pick=3"], cwd=clone, env=env, capture_output=True, text=True
     )
@@ -63,10 +74,24 @@ def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path
     assert _digests(clone / "reports/plots") == plots
 
 
-IDENTITY = {"NAME": "hev-sizing test", "EMAIL": "test@hev-sizing.invalid"}
-
-
 def _digests(folder: Path) -> dict[str, str]:
     return {
         str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.rglob("*.png"))
     }
+
+
+def test_the_fast_pipeline_sizes_the_sedan_on_wltc_from_a_fresh_clone(tmp_path):
+    """Another car and cycle from params alone (issue 40, docs/your-car.md):
+    `dvc exp run $(hev profile fast) $(hev profile sedan)` in a fresh clone runs every stage on the sedan and
+    the WLTC, and the answer is written."""
+    clone, env = _fresh_clone(tmp_path)
+    args = []
+    for name in ("fast", "sedan"):
+        out = subprocess.run(["hev", "profile", name], cwd=clone, env=env, capture_output=True, text=True, check=True)
+        args += out.stdout.split()
+    run = subprocess.run(["dvc", "exp", "run", *args], cwd=clone, env=env, capture_output=True, text=True, timeout=2400)
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+    baselines = json.loads((clone / "reports" / "baselines.json").read_text())
+    assert "wltc" in baselines["conventional"] and "wltc" in baselines["prius"]
+    answer = json.loads((clone / "reports" / "answer.json").read_text())
+    assert answer, "no answer"

@@ -1,12 +1,9 @@
 """Another car and another cycle from params alone (issue 40; docs/your-car.md): the sedan profile's car is
 the study's conversion recipe applied to a heavier, larger, more powerful car on WLTC, and it behaves as
-physics says; the whole pipeline runs for it from a fresh clone."""
+physics says (the whole pipeline for it from a fresh clone: tests/test_reproducible.py)."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -46,33 +43,3 @@ def test_the_sedan_burns_more_and_tops_out_lower_than_the_study_car_on_wltc(para
     assert car["fc"] > 1.15 * study["fc"], (car["fc"], study["fc"])
     assert car["v_max"] < study["v_max"], (car["v_max"], study["v_max"])
     assert abs(car_balance["residual_share"]) < 1e-9
-
-
-@pytest.mark.slow
-@pytest.mark.repro
-def test_the_fast_pipeline_sizes_the_sedan_on_wltc_from_a_fresh_clone(tmp_path):
-    """`dvc exp run $(hev profile fast) $(hev profile sedan)` in a fresh clone: every stage runs on the
-    sedan and WLTC and the answer names a design validated on WLTC."""
-    if subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=REPO, capture_output=True,
-                      text=True, check=True).stdout.strip():  # fmt: skip
-        pytest.skip("uncommitted changes: a clone would not hold them")
-    clone = tmp_path / "clone"
-    subprocess.run(["git", "clone", "-q", str(REPO), str(clone)], check=True)
-    env = {
-        **os.environ,
-        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
-        "DVC_NO_ANALYTICS": "1",
-        "PYTHONPATH": str(clone),
-        **{f"GIT_{who}_{what}": val for who in ("AUTHOR", "COMMITTER") for what, val in
-           (("NAME", "hev-sizing test"), ("EMAIL", "test@hev-sizing.invalid"))},
-    }  # fmt: skip
-    args = []
-    for name in ("fast", "sedan"):
-        out = subprocess.run(["hev", "profile", name], cwd=clone, env=env, capture_output=True, text=True, check=True)
-        args += out.stdout.split()
-    run = subprocess.run(["dvc", "exp", "run", *args], cwd=clone, env=env, capture_output=True, text=True, timeout=2400)
-    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
-    baselines = yaml.safe_load((clone / "reports" / "baselines.json").read_text())
-    assert "wltc" in baselines["conventional"] and "wltc" in baselines["prius"]
-    answer = yaml.safe_load((clone / "reports" / "answer.json").read_text())
-    assert answer, "no answer"
