@@ -16,7 +16,8 @@ from hevlib.sim.drive import R_MASS
 from hevlib.sim.simulator import charge_balance, simulate
 from hevlib.sim.vehicles import Vehicle
 
-#: Net battery energy / fuel energy at which a run counts as balanced here (the pipeline: 1e-2; the stock Prius on FTP at 1 % grade settles at 1.1e-3).
+#: Net battery energy / fuel energy at which a run counts as balanced here (the pipeline: 1e-2; the stock Prius
+#: on FTP at 1 % grade settles at 1.1e-3).
 TIGHT_BALANCE = 2e-3
 MAX_RUNS = 12
 
