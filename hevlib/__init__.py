@@ -24,7 +24,7 @@ SIMULATOR_SOURCES = (
     *_KERNEL_SOURCES,
     "sim/simulator.py",
     "sim/vehicles.py",
-    "components.py",
+    "components",
     "sizing.py",
     "cycles.py",
 )

@@ -13,6 +13,7 @@ import pandas as pd
 
 from hevlib.design import DESIGN_VARS, UNITS
 from hevlib.recommend import FAMILY_SHARE
+from hevlib.results import Pick, Recommendation, ValidationSummary
 from hevlib.validation import ALL, BASELINE_ALGO, IMPROVEMENT_RESPONSES, SOC_POINTS
 
 #: The study's headline against the conventional car on FTP (SPEC section 1).
@@ -231,14 +232,14 @@ def _designs_table(table: pd.DataFrame, selected: pd.DataFrame, cycle: str, fail
     return markdown_table(header, body)
 
 
-def _design_line(d: Mapping) -> str:
-    x = d["design"]
+def _design_line(d: Pick) -> str:
+    x = d.design
     return ", ".join(f"{v} = {_fmt(x[v])}" for v in DESIGN_VARS)
 
 
-def _reasons_lines(d: Mapping) -> list[str]:
+def _reasons_lines(d: Pick) -> list[str]:
     out = []
-    touched = d.get("bounds_touched", [])
+    touched = d.bounds_touched
     out.append(
         "- Bounds of the design box it touches: "
         + (
@@ -249,7 +250,7 @@ def _reasons_lines(d: Mapping) -> list[str]:
         )
         + "."
     )
-    margins = d.get("screen_margins", {})
+    margins = d.screen_margins
     if margins:
         out.append(
             "- Margin to the screen (value against limit; a rule within 5 % of its limit is active): "
@@ -261,55 +262,55 @@ def _reasons_lines(d: Mapping) -> list[str]:
             )
             + "."
         )
-    fails = d.get("fails", [])
+    fails = d.fails
     out.append("- Validation cycles it fails: " + (", ".join(f"**{c}**" for c in fails) if fails else "none") + ".")
     return out
 
 
-def _equivalents_lines(rec: Mapping) -> list[str]:
+def _equivalents_lines(rec: Recommendation) -> list[str]:
     """The model's noise at the eligible picks and the recommendation's near-equivalents, with what separates
     each from it (``recommendation.noise``, ``recommendation.equivalents``)."""
-    noise = rec.get("noise")
+    noise = rec.noise
     if not noise:
         return []
-    d = rec["design"]
+    d = rec.design
     sig = ", ".join(
-        f"{_labelled(c)} ±{_fmt(noise['sigma'][c])} ({_round(noise['sigma_pct_of_mean'][c])} %)" for c in noise["sigma"]
+        f"{_labelled(c)} ±{_fmt(noise.sigma[c])} ({_round(noise.sigma_pct_of_mean[c])} %)" for c in noise.sigma
     )
-    own = 100 * noise["knee_share"].get(d["design_id"], 0.0)
-    others = sorted(((v, k) for k, v in noise["knee_share"].items() if k != d["design_id"] and v > 0), reverse=True)
+    own = 100 * noise.knee_share.get(d.design_id, 0.0)
+    others = sorted(((v, k) for k, v in noise.knee_share.items() if k != d.design_id and v > 0), reverse=True)
     out = [
         f"**Within the model's noise.** Twins of each eligible pick, its continuous variables moved by at most "
-        f"{100 * noise['share_of_range']:g} % of their ranges, scatter the knee criteria by {sig} (root mean square). "
-        f"With every pick drawn as itself or one of its {noise['twins']} twins, {d['design_id']} is the knee in "
-        f"{own:.0f} % of {noise['draws']} draws"
+        f"{100 * noise.share_of_range:g} % of their ranges, scatter the knee criteria by {sig} (root mean square). "
+        f"With every pick drawn as itself or one of its {noise.twins} twins, {d.design_id} is the knee in "
+        f"{own:.0f} % of {noise.draws} draws"
         + ("; " + ", ".join(f"{k} in {100 * v:.1f} %" for v, k in others) if others else "")
         + ".",
         "",
     ]
-    eq = rec.get("equivalents") or []
+    eq = rec.equivalents
     if not eq:
         return out + [
-            f"No other eligible pick is the knee in {100 * noise['min_share']:g} % of the draws or more: the model's "
+            f"No other eligible pick is the knee in {100 * noise.min_share:g} % of the draws or more: the model's "
             "noise does not swap the answer.",
             "",
         ]
-    crit = list(noise["sigma"])
+    crit = list(noise.sigma)
     rows = [
         [
-            e["design_id"],
-            e["algo"],
-            _round(100 * e["knee_share"]),
-            *[e["criteria"][c] for c in crit],
-            *[_round(e["vs_recommended"][c]["pct"]) for c in crit],
-            "; ".join(f"{s['variable']} {_fmt(s['recommended'])} → {_fmt(s['this'])}" for s in e["separated_by"])
+            e.design_id,
+            e.algo,
+            _round(100 * e.knee_share),
+            *[e.criteria[c] for c in crit],
+            *[_round(e.vs_recommended[c]["pct"]) for c in crit],
+            "; ".join(f"{s['variable']} {_fmt(s['recommended'])} → {_fmt(s['this'])}" for s in e.separated_by)
             or f"nothing beyond {100 * FAMILY_SHARE:g} % of a range (same family)",
         ]
         for e in eq
     ]
     return out + [
-        f"Near-equivalents: the knee in at least {100 * noise['min_share']:g} % of the draws, so the same answer as "
-        f"{d['design_id']} (another seed or machine that recommends one of them agrees with this one):",
+        f"Near-equivalents: the knee in at least {100 * noise.min_share:g} % of the draws, so the same answer as "
+        f"{d.design_id} (another seed or machine that recommends one of them agrees with this one):",
         "",
         markdown_table(
             [
@@ -326,7 +327,7 @@ def _equivalents_lines(rec: Mapping) -> list[str]:
     ]
 
 
-def _seed_spread_lines(validation: Mapping, robustness: Mapping | None) -> list[str]:
+def _seed_spread_lines(validation: ValidationSummary, robustness: Mapping | None) -> list[str]:
     """The headline's seed spread next to this run's single-seed figures (``hev robustness``)."""
     out = ["### Across seeds (the seed spread of this answer)", ""]
     if not robustness:
@@ -335,8 +336,8 @@ def _seed_spread_lines(validation: Mapping, robustness: Mapping | None) -> list[
             "",
         ]
     n = robustness["replicates"]
-    head = validation.get("recommendation") or {}
-    this = (head.get("design") or {}).get("design_id")
+    rec = validation.recommendation
+    this = rec.design.design_id if rec is not None and rec.design is not None else None
     status = (
         "made with these settings and code"
         if robustness.get("current")
@@ -392,28 +393,26 @@ def _seed_spread_lines(validation: Mapping, robustness: Mapping | None) -> list[
     return out
 
 
-def _build_this(validation: Mapping, pareto: Mapping, robustness: Mapping | None = None) -> list[str]:
-    rec = validation.get("recommendation")
+def _build_this(validation: ValidationSummary, pareto: Mapping, robustness: Mapping | None = None) -> list[str]:
+    rec = validation.recommendation
     if not rec:
         return []
-    d = rec["design"]
+    d = rec.design
     out = ["## Build this", ""]
     if d is None:
         return out + ["> No design could be recommended: no pick has finite validation figures.", ""]
     out += [
-        f"**{d['design_id']}** (found by {d['algo']}, rank {d['rank']} of the kept designs): {_design_line(d)}.",
+        f"**{d.design_id}** (found by {d.algo}, rank {d.rank} of the kept designs): {_design_line(d)}.",
         "",
-        f"Why this one: the {rec['preference']} ({rec['eligible']} of the {validation['counts']['picked']} picks"
-        + (")." if rec["pool_rule"] == "eligible" else f"; {rec['pool_rule']})."),
+        f"Why this one: the {rec.preference} ({rec.eligible} of the {validation.counts.picked} picks"
+        + (")." if rec.pool_rule == "eligible" else f"; {rec.pool_rule})."),
         "",
         *_reasons_lines(d),
         "",
         *_equivalents_lines(rec),
         *_seed_spread_lines(validation, robustness),
     ]
-    cycles = list(d["by_cycle"])
-    for cycle in cycles:
-        fig = d["by_cycle"][cycle]
+    for cycle, fig in d.by_cycle.items():
         rows = []
         for r in (x for x in fig["design"] if x != "cycle_met"):
             rows.append(
@@ -428,15 +427,15 @@ def _build_this(validation: Mapping, pareto: Mapping, robustness: Mapping | None
             )
         rows.append(["cycle met", *[fig[k]["cycle_met"] for k in ("design", "prius", "conventional")], None, None])
         out += [
-            f"### {cycle}" + (" (headline cycle)" if cycle == rec["cycle"] else ""),
+            f"### {cycle}" + (" (headline cycle)" if cycle == rec.cycle else ""),
             "",
             markdown_table(
-                ["figure", d["design_id"], "stock Prius", "conventional", "% better than Prius", "% better than conv."],
+                ["figure", d.design_id, "stock Prius", "conventional", "% better than Prius", "% better than conv."],
                 rows,
             ),
             "",
         ]
-    bags = d.get("ftp_bags")
+    bags = d.ftp_bags
     if bags:
         out += [
             "### FTP bag by bag (each hybrid from the SOC its charge-balanced run started at)",
@@ -461,7 +460,7 @@ def _build_this(validation: Mapping, pareto: Mapping, robustness: Mapping | None
             ),
             "",
         ]
-    best = rec.get("best", {})
+    best = rec.best
     if best:
         out += [
             "### The best pick of each objective group (same cycle, same eligibility)",
@@ -480,13 +479,13 @@ def _build_this(validation: Mapping, pareto: Mapping, robustness: Mapping | None
                 [
                     [
                         g,
-                        " + ".join(rec["groups"][g]),
-                        b["design_id"],
-                        b["by_cycle"][rec["cycle"]]["design"]["fc_charge_balanced"],
-                        b["by_cycle"][rec["cycle"]]["design"]["m_veh"],
-                        b["by_cycle"][rec["cycle"]]["design"]["t_0_100_s"],
-                        ", ".join(f"{t['variable']} {t['side']}" for t in b["bounds_touched"]) or "none",
-                        ", ".join(b["fails"]) or "none",
+                        " + ".join(rec.groups[g]),
+                        b.design_id,
+                        b.by_cycle[rec.cycle]["design"]["fc_charge_balanced"],
+                        b.by_cycle[rec.cycle]["design"]["m_veh"],
+                        b.by_cycle[rec.cycle]["design"]["t_0_100_s"],
+                        ", ".join(f"{t['variable']} {t['side']}" for t in b.bounds_touched) or "none",
+                        ", ".join(b.fails) or "none",
                     ]
                     for g, b in best.items()
                     if b is not None
@@ -494,10 +493,10 @@ def _build_this(validation: Mapping, pareto: Mapping, robustness: Mapping | None
             ),
             "",
         ]
-    hw = rec["highway_rule"]
+    hw = rec.highway_rule
     out.append(
-        f"Highway rule (`screen.min_v_max_kmh`): {'on' if hw['enabled'] else 'off'} at {hw['min_v_max_kmh']:g} km/h; "
-        f"{len(hw['picks_below'])} of the picks fall short of it in the flat-road top-speed test."
+        f"Highway rule (`screen.min_v_max_kmh`): {'on' if hw.enabled else 'off'} at {hw.min_v_max_kmh:g} km/h; "
+        f"{len(hw.picks_below)} of the picks fall short of it in the flat-road top-speed test."
     )
     ab = pareto.get("active_bounds")
     if ab:
@@ -505,10 +504,10 @@ def _build_this(validation: Mapping, pareto: Mapping, robustness: Mapping | None
     return out + [""]
 
 
-def _headline(validation: Mapping) -> list[str]:
-    imp = validation["improvement"][ALL]["vs_conventional"]
-    down = validation["engine_downsizing_pct"][ALL]
-    mean = validation["absolute"]["mean_of_picks"][ALL]
+def _headline(validation: ValidationSummary) -> list[str]:
+    imp = validation.improvement[ALL]["vs_conventional"]
+    down = validation.engine_downsizing_pct[ALL]
+    mean = validation.absolute["mean_of_picks"][ALL]
     return [
         markdown_table(
             ["figure (all picks vs conventional car)", "study", "this run"],
@@ -518,17 +517,16 @@ def _headline(validation: Mapping) -> list[str]:
                     STUDY_HEADLINE["engine downsizing"],
                     "n/a"
                     if down is None
-                    else f"{down:.1f} % ({validation['p_eng_conventional_kw']:g} kW to "
-                    f"{mean_p_eng(validation):.1f} kW)",
+                    else f"{down:.1f} % ({validation.p_eng_conventional_kw:g} kW to {mean_p_eng(validation):.1f} kW)",
                 ],
                 ["test mass", STUDY_HEADLINE["m_veh"], _pct(imp.get("m_veh"), "lower")],
                 [
-                    f"charge-balanced fuel consumption ({validation['cycle']}, SAE J1711 within 1 %)",
+                    f"charge-balanced fuel consumption ({validation.cycle}, SAE J1711 within 1 %)",
                     "-",
                     _pct(imp.get("fc_charge_balanced"), "lower"),
                 ],
                 [
-                    f"fuel consumption ({validation['cycle']}, the study's protocol: from SOC 0.7, not balanced)",
+                    f"fuel consumption ({validation.cycle}, the study's protocol: from SOC 0.7, not balanced)",
                     STUDY_HEADLINE["fc"],
                     _pct(imp.get("fc"), "lower"),
                 ],
@@ -540,8 +538,8 @@ def _headline(validation: Mapping) -> list[str]:
     ]
 
 
-def mean_p_eng(validation: Mapping) -> float:
-    v = validation.get("mean_p_eng_kw", {}).get(ALL)
+def mean_p_eng(validation: ValidationSummary) -> float:
+    v = validation.mean_p_eng_kw.get(ALL)
     return np.nan if v is None else float(v)
 
 
@@ -554,7 +552,7 @@ def _pct(v, word: str) -> str:
 
 def build_summary(
     pareto: Mapping,
-    validation: Mapping,
+    validation: ValidationSummary,
     table: pd.DataFrame,
     selected: pd.DataFrame,
     plots: Mapping[str, str],
@@ -563,9 +561,9 @@ def build_summary(
 ) -> str:
     """The whole ``summary.md`` text. ``plots`` maps a caption to a path relative to the summary; ``robustness``:
     ``reports/robustness/summary.json`` with ``current`` (whether it was made with these settings and code)."""
-    cycle = validation["cycle"]
-    imp = validation["improvement"]
-    fails = validation["counts"].get("failed_cycles", {})
+    cycle = validation.cycle
+    imp = validation.improvement
+    fails = validation.counts.failed_cycles
     out = [
         "# hev-sizing: selection and validation summary",
         "",
@@ -585,7 +583,7 @@ def build_summary(
         "fuel at the run's own engine and generator efficiencies. The conventional car has one figure for all three.",
         "",
     ]
-    if not validation["counts"]["picked"]:
+    if not validation.counts.picked:
         worst = max(pareto.get("screen", {}).items(), key=lambda kv: kv[1]["removed_in_sequence"], default=None)
         out += [
             "> **No design passed the screening, so nothing was validated and the improvement tables are "
@@ -610,7 +608,7 @@ def build_summary(
         improvement_markdown(imp, "vs_prius"),
         "",
     ]
-    down = validation["engine_downsizing_pct"]
+    down = validation.engine_downsizing_pct
     out += [
         "Engine downsizing (mean p_eng_kw of the picks against the conventional engine, '+' = smaller): "
         + ", ".join(f"{g} {'n/a' if v is None else _fmt(_round(v)) + ' %'}" for g, v in down.items())
@@ -618,18 +616,17 @@ def build_summary(
         "",
     ]
     out += ["### Against the study's headline", "", *_headline(validation), ""]
-    met = validation["counts"]["cycle_met"]
+    met = validation.counts.cycle_met
     out += [
         "Cycle met (picks / conventional / Prius): "
         + "; ".join(
-            f"{c}: {m['picked']} of {validation['counts']['picked']} / {_fmt(m.get('conventional'))} / "
-            f"{_fmt(m.get('prius'))}"
+            f"{c}: {m['picked']} of {validation.counts.picked} / {_fmt(m.get('conventional'))} / {_fmt(m.get('prius'))}"
             for c, m in met.items()
         )
         + ".",
         "",
     ]
-    for other, sec in validation.get("by_cycle", {}).items():
+    for other, sec in validation.by_cycle.items():
         failing = sorted(v for v, cs in fails.items() if other in cs and v not in ("prius", "conventional"))
         out += [
             f"## Robustness check: {other}",

@@ -29,6 +29,7 @@ import numpy as np
 
 from hevlib.design import DESIGN_VARS
 from hevlib.recommend import FAMILY_SHARE, KNEE_CRITERIA, same_family
+from hevlib.results import Equivalent, Pick, ValidationSummary, from_json
 
 #: Every source a replicate can reseed, in the order their seeds are derived (an index into this tuple).
 SEEDED_SOURCES: tuple[str, ...] = ("nsga3", "moead", "moga", "oracle", "parego", "nehvi")  # new ones at the end
@@ -131,18 +132,18 @@ def collect(folder: Path, replicate: int, seeds: Mapping[str, int], fingerprint_
     source, knee share), its near-equivalents, the answer's figures and each source's judged archive
     hypervolume."""
     folder = Path(folder)
-    validation = json.loads((folder / "reports/validation.json").read_text())
+    validation = from_json(ValidationSummary, json.loads((folder / "reports/validation.json").read_text()))
     answer = json.loads((folder / "reports/answer.json").read_text())
     pareto = json.loads((folder / "reports/pareto.json").read_text())
-    rec = validation["recommendation"]
-    d = rec["design"]
-    head = rec["cycle"]
+    rec = validation.recommendation
+    d = rec.design
+    head = rec.cycle
 
-    def design(entry: Mapping) -> dict:
+    def design(entry: Pick | Equivalent) -> dict:
         return {
-            "design_id": entry["design_id"],
-            "algo": entry["algo"],
-            "design": {v: float(entry["design"][v]) for v in DESIGN_VARS},
+            "design_id": entry.design_id,
+            "algo": entry.algo,
+            "design": {v: float(entry.design[v]) for v in DESIGN_VARS},
         }
 
     return {
@@ -153,10 +154,10 @@ def collect(folder: Path, replicate: int, seeds: Mapping[str, int], fingerprint_
         if d is None
         else {
             **design(d),
-            "criteria": {c: d["by_cycle"][head]["design"][c] for c in KNEE_CRITERIA},
-            "knee_share": (rec.get("noise") or {}).get("knee_share", {}).get(d["design_id"]),
+            "criteria": {c: d.by_cycle[head]["design"][c] for c in KNEE_CRITERIA},
+            "knee_share": rec.noise.knee_share.get(d.design_id) if rec.noise is not None else None,
         },
-        "equivalents": [design(e) for e in rec.get("equivalents", [])],
+        "equivalents": [design(e) for e in rec.equivalents],
         "answer": {k: answer.get(k) for k in SPREAD_KEYS},
         "archive_hypervolume": {a: v.get("hypervolume") for a, v in pareto.get("sources", {}).items()},
     }

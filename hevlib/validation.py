@@ -39,6 +39,7 @@ from hevlib.design import (
     design_vector,
 )
 from hevlib.pareto import algo_names
+from hevlib.results import Counts, Equivalent, HighwayRule, Noise, Pick, Recommendation, ValidationSummary
 
 #: Responses of the improvement table, in its row order.
 IMPROVEMENT_RESPONSES: tuple[str, ...] = (
@@ -284,9 +285,16 @@ def cold_start_window_s(sim, cycle: Cycle, traces: dict[str, pd.DataFrame] | Non
     return FTP_BAG1_S if len(off) and cycle.time_s[1:][off[0]] > FTP_BAG1_S else float(cycle.duration_s)
 
 
-def summarise(table: pd.DataFrame, algos: Sequence[str], cycles: Sequence[str], p_conv_kw: float) -> dict:
+def summarise(
+    table: pd.DataFrame,
+    algos: Sequence[str],
+    cycles: Sequence[str],
+    p_conv_kw: float,
+    recommendation: Recommendation | None = None,
+) -> ValidationSummary:
     """``reports/validation.json``: headline (first cycle) improvement table, counts, engine downsizing,
-    baseline and mean-pick responses, and the same improvement table for every other cycle."""
+    baseline and mean-pick responses, the same improvement table for every other cycle, and the
+    ``recommendation`` (:func:`recommendation`) when given."""
     headline = cycles[0]
     designs, baselines = split_cycle(table, headline)
     groups = group_rows(designs, algos)
@@ -304,26 +312,28 @@ def summarise(table: pd.DataFrame, algos: Sequence[str], cycles: Sequence[str], 
         }
         if cycle != headline:
             by_cycle[cycle] = {"improvement": improvement_table(d, b, algos)}
-    return {
-        "cycle": headline,
-        "improvement": improvement_table(designs, baselines, algos),
-        "units": {r: ("SOC percentage points" if r in SOC_POINTS else "%") for r in IMPROVEMENT_RESPONSES},
-        "counts": {
-            "picked": int(len(designs)),
-            "by_algo": {g: int(m.sum()) for g, m in groups.items() if g != ALL},
-            "cycle_met": met,
-            "charge_balanced": balanced,
-        },
-        "engine_downsizing_pct": engine_downsizing(designs, algos, p_conv_kw),
-        "mean_p_eng_kw": {g: _mean(designs.loc[m, "p_eng_kw"].to_numpy(dtype=float)) for g, m in groups.items()},
-        "p_eng_conventional_kw": float(p_conv_kw),
-        "absolute": {
+    return ValidationSummary(
+        cycle=headline,
+        improvement=improvement_table(designs, baselines, algos),
+        units={r: ("SOC percentage points" if r in SOC_POINTS else "%") for r in IMPROVEMENT_RESPONSES},
+        counts=Counts(
+            picked=int(len(designs)),
+            by_algo={g: int(m.sum()) for g, m in groups.items() if g != ALL},
+            cycle_met=met,
+            charge_balanced=balanced,
+            failed_cycles=failed_cycles(table, cycles),
+        ),
+        engine_downsizing_pct=engine_downsizing(designs, algos, p_conv_kw),
+        mean_p_eng_kw={g: _mean(designs.loc[m, "p_eng_kw"].to_numpy(dtype=float)) for g, m in groups.items()},
+        p_eng_conventional_kw=float(p_conv_kw),
+        absolute={
             "mean_of_picks": {g: _abs(designs[m]) for g, m in groups.items()},
             **{name: {r: float(b[r]) for r in IMPROVEMENT_RESPONSES} for name, b in baselines.items()},
         },
-        "by_cycle": by_cycle,
-        "best_design": best_design(table, headline),
-    }
+        by_cycle=by_cycle,
+        best_design=best_design(table, headline),
+        recommendation=recommendation,
+    )
 
 
 # ------------------------------------------------------------------------------------- recommendation
@@ -456,25 +466,25 @@ def _equivalents(designs: pd.DataFrame, pool: np.ndarray, chosen: str, twins: pd
     shares = knee_shares(versions, settings.draws, rng)
     sigma = noise_spread(versions)
     crit = designs.iloc[idx][list(KNEE_CRITERIA)].to_numpy(dtype=float)
-    noise = {
-        "method": (
+    noise = Noise(
+        method=(
             f"each eligible design and {settings.twins} twins whose continuous variables differ by at most "
             f"{100 * settings.share:g} % of their ranges, simulated on the headline cycle; the knee drawn "
             f"{settings.draws} times with each design as itself or one of its twins at random; an equivalent is the "
             f"knee in at least {100 * settings.min_share:g} % of the draws"
         ),
-        "twins": int(settings.twins),
-        "share_of_range": float(settings.share),
-        "draws": int(settings.draws),
-        "min_share": float(settings.min_share),
-        "seed": int(settings.seed),
-        "sigma": {c: _finite(v) for c, v in zip(KNEE_CRITERIA, sigma, strict=True)},
-        "sigma_pct_of_mean": {
+        twins=int(settings.twins),
+        share_of_range=float(settings.share),
+        draws=int(settings.draws),
+        min_share=float(settings.min_share),
+        seed=int(settings.seed),
+        sigma={c: _finite(v) for c, v in zip(KNEE_CRITERIA, sigma, strict=True)},
+        sigma_pct_of_mean={
             c: _finite(100 * v / np.mean(np.abs(crit[:, j])))
             for j, (c, v) in enumerate(zip(KNEE_CRITERIA, sigma, strict=True))
         },
-        "knee_share": {str(n): float(v) for n, v in zip(ids, shares, strict=True)},
-    }
+        knee_share={str(n): float(v) for n, v in zip(ids, shares, strict=True)},
+    )
     row = {str(n): i for i, n in enumerate(ids)}
     base = crit[row[chosen]]
     out = []
@@ -487,22 +497,22 @@ def _equivalents(designs: pd.DataFrame, pool: np.ndarray, chosen: str, twins: pd
         x = by_id[name]
         separated_by = separation(_plain(by_id[chosen]), _plain(x), space)  # beyond a family's share of a range
         out.append(
-            {
-                "design_id": name,
-                "algo": str(x["algo"]),
-                "knee_share": float(shares[i]),
-                "design": {v: float(x[v]) for v in DESIGN_VARS},
-                "criteria": {c: _finite(crit[i, j]) for j, c in enumerate(KNEE_CRITERIA)},
-                "vs_recommended": {
+            Equivalent(
+                design_id=name,
+                algo=str(x["algo"]),
+                knee_share=float(shares[i]),
+                design={v: float(x[v]) for v in DESIGN_VARS},
+                criteria={c: _finite(crit[i, j]) for j, c in enumerate(KNEE_CRITERIA)},
+                vs_recommended={
                     c: {
                         "difference": _finite(crit[i, j] - base[j]),
                         "pct": _finite(100 * (crit[i, j] - base[j]) / abs(base[j])),
                     }
                     for j, c in enumerate(KNEE_CRITERIA)
                 },
-                "separated_by": separated_by,
-                "same_family": not separated_by,
-            }
+                separated_by=separated_by,
+                same_family=not separated_by,
+            )
         )
     return noise, out
 
@@ -515,7 +525,7 @@ def recommendation(
     space,
     twins: pd.DataFrame | None = None,
     equivalence=None,
-) -> dict:
+) -> Recommendation:
     """``reports/validation.json``'s ``recommendation``: the design to build (the knee of the charge-balanced
     fuel on the first cycle against test mass and 0-100 km/h time, among the picks that meet every
     validation cycle and the highway rule when it is on; :func:`hevlib.recommend.recommend`), the best pick
@@ -532,23 +542,15 @@ def recommendation(
     rules = screening_rules(screen)
     by_id = {str(r["design_id"]): r for _, r in selected.iterrows()}
 
-    def explain(design_id: str | None) -> dict | None:
+    def explain(design_id: str | None) -> Pick | None:
         if design_id is None:
             return None
         x = by_id[design_id]
-        out = {
-            "design_id": design_id,
-            "algo": str(x["algo"]),
-            "rank": int(x["rank"]) if "rank" in x else None,
-            "design": {v: float(x[v]) for v in DESIGN_VARS},
-            **reasons(_plain(x), space, rules),
-            "fails": fails.get(design_id, []),
-            "by_cycle": {},
-        }
+        by_cycle = {}
         for cycle in cycles:
             d, b = split_cycle(table, cycle)
             row = d[d["vehicle"].astype(str) == design_id].iloc[0]
-            out["by_cycle"][cycle] = {
+            by_cycle[cycle] = {
                 "design": _figures(row),
                 **{name: _figures(base) for name, base in b.items()},
                 **{
@@ -562,39 +564,48 @@ def recommendation(
                     for name, base in b.items()
                 },
             }
-        return out
+        return Pick(
+            design_id=design_id,
+            algo=str(x["algo"]),
+            rank=int(x["rank"]) if "rank" in x else None,
+            design={v: float(x[v]) for v in DESIGN_VARS},
+            **reasons(_plain(x), space, rules),
+            fails=fails.get(design_id, []),
+            by_cycle=by_cycle,
+        )
 
-    return {
-        "cycle": head,
-        "preference": (
+    noise, equivalents = _near_equivalents(designs, eligible, choice, twins, by_id, space, equivalence)
+    return Recommendation(
+        cycle=head,
+        preference=(
             f"knee of {', '.join(KNEE_CRITERIA)} on {head} (all minimised; hevlib/recommend.py), among the picks that "
             "meet every validation cycle" + (f" and reach {highway.limit:g} km/h" if highway.enabled else "")
         ),
-        "criteria": list(KNEE_CRITERIA),
-        "groups": {g: list(n) for g, n in VALIDATED_GROUPS.items()},
-        "eligible": choice["pool"],
-        "pool_rule": choice["pool_rule"],
-        "highway_rule": {
-            "enabled": highway.enabled,
-            "min_v_max_kmh": highway.limit,
-            "picks_below": [str(i) for i, ok in zip(ids, fast_enough, strict=True) if not ok],
-        },
-        "design": explain(choice["design"]),
-        "best": {g: explain(i) for g, i in choice["best"].items()},
-        **_near_equivalents(designs, eligible, choice, twins, by_id, space, equivalence),
-    }
+        criteria=list(KNEE_CRITERIA),
+        groups={g: list(n) for g, n in VALIDATED_GROUPS.items()},
+        eligible=choice["pool"],
+        pool_rule=choice["pool_rule"],
+        highway_rule=HighwayRule(
+            enabled=highway.enabled,
+            min_v_max_kmh=highway.limit,
+            picks_below=[str(i) for i, ok in zip(ids, fast_enough, strict=True) if not ok],
+        ),
+        design=explain(choice["design"]),
+        best={g: explain(i) for g, i in choice["best"].items()},
+        noise=noise,
+        equivalents=equivalents,
+    )
 
 
-def _near_equivalents(designs, eligible, choice, twins, by_id, space, settings) -> dict:
-    """``noise`` and ``equivalents`` of the recommendation (empty without twins or a recommended design)."""
+def _near_equivalents(designs, eligible, choice, twins, by_id, space, settings) -> tuple[Noise | None, list]:
+    """``noise`` and ``equivalents`` of the recommendation (none without twins or a recommended design)."""
     if twins is None or settings is None or choice["design"] is None or choice["pool_rule"] != "eligible":
-        return {"noise": None, "equivalents": []}
+        return None, []
     from hevlib.recommend import KNEE_CRITERIA
 
     crit = designs[list(KNEE_CRITERIA)].to_numpy(dtype=float)
     pool = np.asarray(eligible, dtype=bool) & np.all(np.isfinite(crit), axis=1)
-    noise, equivalents = _equivalents(designs, pool, choice["design"], twins, by_id, space, settings)
-    return {"noise": noise, "equivalents": equivalents}
+    return _equivalents(designs, pool, choice["design"], twins, by_id, space, settings)
 
 
 #: Tailpipe gases of the bag table with their trace columns.
@@ -651,7 +662,7 @@ def ftp_bags(sim, table: pd.DataFrame, selected: pd.DataFrame, design_id: str, f
     return out
 
 
-def headline(summary: dict) -> dict:
+def headline(summary: ValidationSummary) -> dict:
     """``reports/headline.json``: the answer in six figures (its keys are a contract; ``reports/answer.json``,
     :func:`answer`, holds the same figures under short keys as the declared DVC metric).
 
@@ -662,27 +673,27 @@ def headline(summary: dict) -> dict:
     energy within 1 % of the fuel's), the figure to quote; and the recommended design (``screen.pick:
     recommend``) with its own charge-balanced saving. The full tables stay in ``reports/validation.json``.
     """
-    imp = summary["improvement"][ALL]
+    imp = summary.improvement[ALL]
     return {
         "fc_saving_charge_balanced_pct": imp["vs_conventional"]["fc_charge_balanced"],
         "fc_saving_pct": imp["vs_conventional"]["fc"],
         "fc_saving_vs_prius_pct": imp["vs_prius"]["fc"],
         "mass_saving_pct": imp["vs_conventional"]["m_veh"],
-        "p_eng_kw": summary["mean_p_eng_kw"][ALL],
-        "n_picks": summary["counts"]["picked"],
+        "p_eng_kw": summary.mean_p_eng_kw[ALL],
+        "n_picks": summary.counts.picked,
         **_recommended_headline(summary),
     }
 
 
-def _recommended_headline(summary: dict) -> dict:
+def _recommended_headline(summary: ValidationSummary) -> dict:
     """The recommended design's id and its charge-balanced fuel saving against the conventional car on the
     headline cycle (null without a recommendation)."""
-    rec = (summary.get("recommendation") or {}).get("design")
+    rec = summary.recommendation.design if summary.recommendation is not None else None
     if rec is None:
         return {"recommended_design": None, "recommended_fc_saving_charge_balanced_pct": None}
-    vs = rec["by_cycle"][summary["cycle"]]["vs_conventional"]
+    vs = rec.by_cycle[summary.cycle]["vs_conventional"]
     return {
-        "recommended_design": rec["design_id"],
+        "recommended_design": rec.design_id,
         "recommended_fc_saving_charge_balanced_pct": vs["fc_charge_balanced"],
     }
 

@@ -12,12 +12,12 @@ from hevlib.io import read_table, write_json, write_parquet, write_text
 from hevlib.plots import save_figure
 from hevlib.plots.validation import catalyst_figure, improvement_figure, traces_figure
 from hevlib.report import build_summary
+from hevlib.results import to_json
 from hevlib.validation import (
     answer,
     cold_start_window_s,
     cycle_notes,
     eligible_ids,
-    failed_cycles,
     ftp_bags,
     headline,
     load_cycles,
@@ -76,25 +76,23 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     sizing_name = params.cycles.sizing
     sizing_cycle = cycle_named(sizing_name)
     sizing = {v: sim.run(prius_x[None, :], sizing_cycle, v).iloc[0].to_dict() for v in ("prius", "conventional")}
-    summary = summarise(table, algos, names, params.baseline.conventional.p_eng_kw)
     eq = params.validation.equivalence
     twins = simulate_twins(
         sim, selected, eligible_ids(table, names, params.screen), cycles[0], params.design_space.space(), eq
     )
     rec = recommendation(table, selected, names, params.screen, params.design_space, twins, eq)
-    summary["recommendation"] = rec
-    summary["counts"]["failed_cycles"] = failed_cycles(table, names)
-    if rec["design"] is not None and names[0] == "ftp":
-        rec["design"]["ftp_bags"] = ftp_bags(sim, table, selected, rec["design"]["design_id"], cycles[0], prius_x)
+    if rec.design is not None and names[0] == "ftp":
+        rec = rec.with_ftp_bags(ftp_bags(sim, table, selected, rec.design.design_id, cycles[0], prius_x))
+    summary = summarise(table, algos, names, params.baseline.conventional.p_eng_kw, rec)
 
     figures = {
         f"improvement_{c}.png": improvement_figure(
-            summary["improvement"] if c == names[0] else summary["by_cycle"][c]["improvement"], c
+            summary.improvement if c == names[0] else summary.by_cycle[c]["improvement"], c
         )
         for c in names
     }
     notes = cycle_notes(cycles)
-    best = rec["design"]["design_id"] if rec["design"] is not None else summary["best_design"]
+    best = rec.design.design_id if rec.design is not None else summary.best_design
     tr = traces(sim, selected, best, cycles[0], prius_x) if best is not None else None
     if tr is not None:
         figures[f"traces_{names[0]}.png"] = traces_figure(tr, names[0])
@@ -121,20 +119,20 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
 
     write_parquet(TABLE, table, validation_schema())
     write_parquet(TWINS, twins, twins_schema())
-    write_json(METRICS, summary)
+    write_json(METRICS, to_json(summary))
     head = headline(summary)
     write_json(HEADLINE, head)
     write_json(ANSWER, answer(head))
-    equivalents = [e["design_id"] for e in rec["equivalents"]]
+    equivalents = [e.design_id for e in rec.equivalents]
     write_explorer(
-        EXPLORER, explorer_data(read_table(MERGED), sizing, best if rec["design"] else None, sizing_name, equivalents)
+        EXPLORER, explorer_data(read_table(MERGED), sizing, best if rec.design else None, sizing_name, equivalents)
     )
     for name, fig in figures.items():
         save_figure(fig, PLOTS_DIR / name)
     write_text(SUMMARY, text)
     typer.echo(
-        f"validate: {summary['counts']['picked']} picks on {', '.join(names)}; recommended "
-        f"{best if rec['design'] is not None else 'none'}"
+        f"validate: {summary.counts.picked} picks on {', '.join(names)}; recommended "
+        f"{best if rec.design is not None else 'none'}"
         + (f" (near-equivalents: {', '.join(equivalents)})" if equivalents else "")
         + f" -> wrote {TABLE}, {METRICS}, {HEADLINE}, {ANSWER}, "
         f"{SUMMARY}, {EXPLORER}"

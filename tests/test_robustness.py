@@ -15,6 +15,16 @@ from typer.testing import CliRunner
 
 from hevlib.design import DESIGN_VARS
 from hevlib.params import DesignSpaceParams, parse_params
+from hevlib.results import (
+    Counts,
+    Equivalent,
+    HighwayRule,
+    Noise,
+    Pick,
+    Recommendation,
+    ValidationSummary,
+    to_json,
+)
 from hevlib.robustness import collect, replicate_params, replicate_seed, replicate_seeds, summarise
 
 REPO = Path(__file__).resolve().parents[1]
@@ -118,14 +128,14 @@ def test_a_replicate_is_read_from_its_reports(tmp_path):
     share, its near-equivalents, the answer and every source's archive hypervolume (not its front's)."""
     x = dict(zip(DESIGN_VARS, [48.0, 33.0, 23.0, 3.9, 20.0, 53.0, 31.0], strict=True))
     crit = {"fc_charge_balanced": 4.4, "m_veh": 1150.0, "t_0_100_s": 11.2}
-    rec = {
-        "cycle": "udds",
-        "design": {"design_id": "oracle-7", "algo": "oracle", "design": x, "by_cycle": {"udds": {"design": crit}}},
-        "noise": {"knee_share": {"oracle-7": 0.9}},
-        "equivalents": [{"design_id": "nsga3-2", "algo": "nsga3", "design": x}],
-    }
+    pick = Pick("oracle-7", "oracle", 1, x, [], {}, [], [], {"udds": {"design": crit}})
+    twin = Equivalent("nsga3-2", "nsga3", 0.1, x, crit, {}, [], True)
+    noise = Noise("twins", 8, 0.02, 2000, 0.1, 1, {}, {}, {"oracle-7": 0.9, "nsga3-2": 0.1})
+    rec = Recommendation("udds", "knee", [], {}, 2, "eligible", HighwayRule(False, 0.0, []), pick, {}, noise, [twin])
+    counts = Counts(2, {"oracle": 1, "nsga3": 1}, {}, {}, {})
+    summary = ValidationSummary("udds", {}, {}, counts, {}, {}, 70.0, {}, {}, "oracle-7", rec)
     (tmp_path / "reports").mkdir()
-    (tmp_path / "reports/validation.json").write_text(json.dumps({"recommendation": rec}))
+    (tmp_path / "reports/validation.json").write_text(json.dumps(to_json(summary)))
     (tmp_path / "reports/answer.json").write_text(json.dumps({"rec_fc_cb_pct": 44.0, "p_eng_kw": 48.0}))
     pareto = {
         "sources": {"oracle": {"hypervolume": 2.47, "front_hypervolume": 1.7}, "moga": {"hypervolume": 0.04}},

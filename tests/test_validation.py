@@ -21,6 +21,7 @@ from hevlib.io import write_parquet
 from hevlib.params import DesignSpaceParams, ScreenParams
 from hevlib.pareto import select_designs
 from hevlib.report import build_summary
+from hevlib.results import Recommendation, ValidationSummary, from_json, to_json
 from hevlib.validation import (
     ANSWER_KEYS,
     IMPROVEMENT_RESPONSES,
@@ -209,17 +210,19 @@ def test_summary_reports_the_study_table_and_downsizing():
         FakeSimulator(), _selected(), [_cycle("ftp"), _cycle("hwfet")], np.array([43.0, 31.0, 15.0, 3.93, 25, 78, 30])
     )
     s = summarise(table, ["nsga3", "moead", "moga"], ["ftp", "hwfet"], 70.0)
-    assert s["cycle"] == "ftp" and set(s["improvement"]) == {"nsga3", "moead", "moga", "all"}
-    assert set(s["improvement"]["all"]["vs_prius"]) == set(IMPROVEMENT_RESPONSES)
-    assert s["improvement"]["all"]["vs_conventional"]["diff_soc"] is None
+    assert s.cycle == "ftp" and set(s.improvement) == {"nsga3", "moead", "moga", "all"}
+    assert set(s.improvement["all"]["vs_prius"]) == set(IMPROVEMENT_RESPONSES)
+    assert s.improvement["all"]["vs_conventional"]["diff_soc"] is None
     fc = 2 + np.array([42.0, 30.0, 55.0]) / 20
-    assert s["improvement"]["all"]["vs_conventional"]["fc"] == pytest.approx(np.mean(100 * (8 - fc) / 8))
-    assert s["engine_downsizing_pct"]["all"] == pytest.approx(100 * (70 - np.mean([42, 30, 55])) / 70)
-    assert s["engine_downsizing_pct"]["nsga3"] == pytest.approx(100 * (70 - 36) / 70)
-    assert s["counts"]["by_algo"] == {"nsga3": 2, "moead": 1, "moga": 1}
-    assert s["counts"]["cycle_met"]["ftp"] == {"picked": 2, "conventional": True, "prius": True}
-    assert "hwfet" in s["by_cycle"] and "ftp" not in s["by_cycle"]
-    json.dumps(s)  # plain JSON types only
+    assert s.improvement["all"]["vs_conventional"]["fc"] == pytest.approx(np.mean(100 * (8 - fc) / 8))
+    assert s.engine_downsizing_pct["all"] == pytest.approx(100 * (70 - np.mean([42, 30, 55])) / 70)
+    assert s.engine_downsizing_pct["nsga3"] == pytest.approx(100 * (70 - 36) / 70)
+    assert s.counts.by_algo == {"nsga3": 2, "moead": 1, "moga": 1}
+    assert s.counts.cycle_met["ftp"] == {"picked": 2, "conventional": True, "prius": True}
+    assert "hwfet" in s.by_cycle and "ftp" not in s.by_cycle
+    # one JSON form: plain JSON types, no recommendation key without one, read back to the same summary
+    data = json.loads(json.dumps(to_json(s)))
+    assert "recommendation" not in data and from_json(ValidationSummary, data) == s
     pareto = select_designs(
         {"nsga3": synthetic_front(40, 1)}, ScreenParams(n_keep=5, n_pick=3, speed_dev_max=1.0, mass_max_kg=2000)
     ).summary
@@ -306,7 +309,7 @@ def test_summary_says_so_when_nothing_passed_screening():
     prius_x = np.array([43.0, 31.0, 15.0, 3.93, 25, 78, 30])
     table = validation_table(FakeSimulator(), _selected().iloc[:0], [_cycle("ftp")], prius_x)
     s = summarise(table, ["nsga3"], ["ftp"], 70.0)
-    assert s["improvement"]["nsga3"]["vs_prius"]["fc"] is None and s["best_design"] is None
+    assert s.improvement["nsga3"]["vs_prius"]["fc"] is None and s.best_design is None
     res = select_designs({"nsga3": synthetic_front(20, 1)}, ScreenParams(speed_dev_max=1e-6))
     assert res.summary["counts"]["picked"] == 0
     text = build_summary(res.summary, s, table, res.selected.to_pandas(), {})
@@ -343,11 +346,13 @@ def test_twins_stay_near_their_design_and_near_ties_become_equivalents():
     assert np.mean(np.abs(moved[:, :4]) > 0) > 0.9  # moved (but where the box clips them)
     twins["t_0_100_s"] = 10.0 + twins["p_mot_kw"] / 100
     rec = recommendation(table, sel, ["ftp"], ScreenParams(), space, twins, eq)
-    chosen = rec["design"]["design_id"]
+    chosen = rec.design.design_id
     assert chosen in {"a", "b"}  # a and b are one design to the model: 0.2 kW apart, far inside its noise
     other = {"a": "b", "b": "a"}[chosen]
-    assert [e["design_id"] for e in rec["equivalents"]] == [other]
-    e = rec["equivalents"][0]
-    assert e["same_family"] and e["separated_by"] == [] and abs(e["vs_recommended"]["m_veh"]["pct"]) < 0.1
-    assert rec["noise"]["knee_share"][chosen] + e["knee_share"] + rec["noise"]["knee_share"]["c"] == pytest.approx(1)
-    assert rec["noise"]["sigma"]["m_veh"] > 0 and ValidateParams().equivalence.twins == 8
+    assert [e.design_id for e in rec.equivalents] == [other]
+    e = rec.equivalents[0]
+    assert e.same_family and e.separated_by == [] and abs(e.vs_recommended["m_veh"]["pct"]) < 0.1
+    assert rec.noise.knee_share[chosen] + e.knee_share + rec.noise.knee_share["c"] == pytest.approx(1)
+    assert rec.noise.sigma["m_veh"] > 0 and ValidateParams().equivalence.twins == 8
+    # the typed recommendation round-trips through its JSON form
+    assert from_json(Recommendation, json.loads(json.dumps(to_json(rec)))) == rec
