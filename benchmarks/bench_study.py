@@ -127,7 +127,8 @@ def post(data: Path, n: int | None, out_dir: Path) -> dict:
     import polars as pl
 
     from hevlib.io import write_json, write_parquet
-    from hevlib.pareto import HvSettings, screened_normalisation, select_designs, simulated_as_front, table_schema
+    from hevlib.judging import HvSettings, screened_normalisation, simulated_as_front
+    from hevlib.pareto import select_designs, table_schema
     from hevlib.tables import scan
 
     params = _params()

@@ -8,8 +8,10 @@ from ``stages/<command>.py``, adds each parent package's ``__init__``, and names
 when every module in it is reached. ``hev deps`` prints the lists, ``hev deps --write`` puts them into
 ``dvc.yaml``, ``hev deps --check`` (and the test suite) fails when a stage imports a module its deps omit.
 
-The entry point (``stages/cli.py``) imports only the module of the command it runs (found by
-``stages.cli.command_index``, which reads the sources); that dynamic import is not followed.
+Which ``stages`` module each ``hev`` command lives in is the CLI's to say: the functions that read
+``dvc.yaml`` take that index (``{command: module}``, :func:`stages.cli.command_modules`, read from the sources)
+as an argument, so this library never imports the command layer. The entry point (``stages/cli.py``) imports
+only the module of the command it runs; that dynamic import is not followed.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from __future__ import annotations
 import ast
 import hashlib
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -115,17 +117,9 @@ _SECTION = re.compile(r"^\s+(deps|params|outs|plots|metrics|cmd|do|foreach|wdir|
 _CODE_DEP = re.compile(r"^(\s*)- (hevlib|stages)(/\S*)?\s*(#.*)?$")
 
 
-def command_modules(root: Path) -> dict[str, str]:
-    """Each ``hev`` command with the ``stages`` module that registers it (:func:`stages.cli.command_index`,
-    read from the sources)."""
-    from stages.cli import command_index
-
-    return {name: module for name, (module, _) in command_index(root).items()}
-
-
-def stage_commands(root: Path, dvc_yaml: str) -> dict[str, str]:
-    """Each stage of ``dvc.yaml`` (text) with the ``stages`` module its ``hev`` command runs."""
-    commands = command_modules(root)
+def stage_commands(dvc_yaml: str, commands: Mapping[str, str]) -> dict[str, str]:
+    """Each stage of ``dvc.yaml`` (text) with the ``stages`` module its ``hev`` command runs (``commands``:
+    each command with the module that registers it)."""
     out: dict[str, str] = {}
     for stage, _section, line in _walk(dvc_yaml):
         if stage and (m := _CMD.match(line)):
@@ -140,9 +134,10 @@ def stage_code_deps(root: Path, module: str) -> list[str]:
     return compact(root, set(import_closure(root, module).values()))
 
 
-def generated_deps(root: Path, dvc_yaml: str) -> dict[str, list[str]]:
-    """Every stage's code deps, generated from its command's import closure."""
-    return {stage: stage_code_deps(root, module) for stage, module in stage_commands(root, dvc_yaml).items()}
+def generated_deps(root: Path, dvc_yaml: str, commands: Mapping[str, str]) -> dict[str, list[str]]:
+    """Every stage's code deps, generated from its command's import closure (``commands``: each command with the
+    module that registers it)."""
+    return {stage: stage_code_deps(root, module) for stage, module in stage_commands(dvc_yaml, commands).items()}
 
 
 def declared_deps(dvc_yaml: str) -> dict[str, list[str]]:
@@ -207,11 +202,12 @@ class DepsProblem:
         return f"dvc.yaml: stage {self.stage!r} " + "; ".join(parts) + " (run `hev deps --write`)"
 
 
-def check_deps(root: Path, dvc_yaml: str) -> list[DepsProblem]:
-    """Stages whose declared code deps differ from their import closure (covered file by file)."""
+def check_deps(root: Path, dvc_yaml: str, commands: Mapping[str, str]) -> list[DepsProblem]:
+    """Stages whose declared code deps differ from their import closure (covered file by file; ``commands``: each
+    command with the module that registers it)."""
     declared = declared_deps(dvc_yaml)
     problems = []
-    for stage, wanted in generated_deps(root, dvc_yaml).items():
+    for stage, wanted in generated_deps(root, dvc_yaml, commands).items():
         have = declared.get(stage, [])
         covered = {f for d in have for f in _files(root, d)}
         needed = {f for d in wanted for f in _files(root, d)}

@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from hevlib.io import read_table
+
 if TYPE_CHECKING:  # imported where used (design_matrix): params load without pandas
     import pandas as pd
 
@@ -225,8 +227,6 @@ def read_designs(path, space: DesignSpace | None = None, *, integers: bool = Tru
     """A user's designs file (CSV or Parquet) as an (n >= 1, 7) matrix, checked against ``space`` when given;
     one-line errors name the file, the column and the CSV's own line (1-based; a Parquet file's row): empty
     file, header only, a missing column, text or a flag where a number belongs, a value outside the space."""
-    from hevlib.io import read_table
-
     first_line = 2 if str(path).lower().endswith(".csv") else None  # line 1 is the header
     X = design_matrix(read_table(path), what=str(path), first_line=first_line)
     if len(X) == 0:

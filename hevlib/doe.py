@@ -32,7 +32,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from hevlib import MODEL_VERSION, SIMULATOR_SOURCES, source_hash
+from hevlib import MODEL_VERSION, SIMULATOR_SOURCES, determinism, source_hash
 from hevlib.design import (
     BOOL_RESPONSES,
     DESIGN_VARS,
@@ -42,6 +42,7 @@ from hevlib.design import (
     RESPONSES,
     UNITS,
     DesignSpace,
+    design_matrix,
 )
 from hevlib.params import sizing_simulation_keys
 from hevlib.tables import write_parquet_batches
@@ -216,8 +217,6 @@ def simulation_fingerprint(params) -> str:
     simulator's source code, the pinned code paths of the numeric libraries (:mod:`hevlib.determinism`: glibc's
     libm rounds the kernels' ``exp`` and ``pow``) and :func:`hevlib.params.sizing_simulation_keys` (a cached
     simulated set is reused only if equal)."""
-    from hevlib import determinism
-
     blob = json.dumps(
         {
             "model_version": MODEL_VERSION,
@@ -275,8 +274,6 @@ def finite_objectives(df: pd.DataFrame) -> np.ndarray:
 
 def training_data(df: pd.DataFrame, *, what: str = "designs") -> tuple[np.ndarray, np.ndarray]:
     """(X (n, 7), Y (n, 11)) of the rows a surrogate can learn from (every objective finite)."""
-    from hevlib.design import design_matrix
-
     df = df[finite_objectives(df)]
     return design_matrix(df, what=what), df[list(OBJECTIVES)].to_numpy(dtype=float)
 

@@ -1,8 +1,10 @@
-"""Quality indicators of objective fronts: normalisation, the hypervolume (exact, Monte Carlo beyond a
-front size), IGD.
+"""Quality indicators of objective fronts and the primitives they stand on: the minimisation form
+(:func:`to_minimisation`), dominance (:func:`nondominated_mask`), normalisation, the hypervolume (exact, Monte
+Carlo beyond a front size), IGD and IGD+, and ranking and thinning a set of designs (:func:`ideal_distance`,
+:func:`rank_by`, :func:`pick_random`, :func:`pick_diverse`).
 
 Every function takes objective matrices in minimisation form (``(n, m)``, all minimised; see
-:func:`hevlib.pareto.to_minimisation`). Fronts of different algorithms are only comparable on a
+:func:`to_minimisation`). Fronts of different algorithms are only comparable on a
 common :class:`Normalisation` and a common reference point, so both are arguments, never derived
 from the front being measured. The optimise stage takes the normalisation from every design simulated
 before optimising (:meth:`Normalisation.from_points` over ``data/doe/doe.parquet`` and the held-out
@@ -13,13 +15,45 @@ identical for the three algorithms.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 
+import moocore
 import numpy as np
 from numba import njit, prange
 
+from hevlib.design import OBJECTIVES, SENSE
+
 #: Monte Carlo samples drawn per chunk (the generator's stream does not depend on it).
 _MC_CHUNK_SAMPLES = 65_536
+_SENSE_OF = dict(zip(OBJECTIVES, SENSE, strict=True))
+
+
+# ------------------------------------------------------------------ minimisation form, dominance
+def nondominated_mask(F: np.ndarray) -> np.ndarray:
+    """Boolean mask of the rows of ``F`` (n, m; all minimised, finite) that no other row dominates
+    (moocore's ``is_nondominated``, in C: Kung, Luccio and Preparata's algorithm, O(n log n) for up to 3
+    objectives and O(n log^(m-2) n) beyond, the naive O(m n^2) loop for small n).
+
+    Duplicated rows do not dominate each other, so all copies of a non-dominated point are kept.
+    """
+    F = np.asarray(F, dtype=float)
+    if F.ndim != 2:
+        raise ValueError(f"non-dominated filter: expected an (n, m) objective matrix, got shape {F.shape}")
+    if len(F) == 0:
+        return np.zeros(0, dtype=bool)
+    return np.asarray(moocore.is_nondominated(F, keep_weakly=True), dtype=bool)
+
+
+def sense_of(objectives: Sequence[str]) -> np.ndarray:
+    """+1 (minimised) / -1 (maximised) per objective name; names outside OBJECTIVES are minimised."""
+    return np.array([_SENSE_OF.get(k, 1.0) for k in objectives])
+
+
+def to_minimisation(Y: np.ndarray, objectives: Sequence[str] = OBJECTIVES) -> np.ndarray:
+    """Objectives (..., m) in natural units -> minimisation form (v_max, f_max negated); its own inverse.
+    The one place maximised objectives change sign."""
+    return np.asarray(Y, dtype=float) * sense_of(objectives)
 
 
 @dataclass(frozen=True)
@@ -71,6 +105,23 @@ class Normalisation:
         return {"ideal": self.ideal.tolist(), "nadir": self.nadir.tolist()}
 
 
+def normalisation_dict(norm: Normalisation) -> dict:
+    """``{ideal: {objective: value}, nadir: {...}}`` in each objective's own units (natural sense: for
+    ``v_max``, ``f_max`` the ideal is the largest)."""
+    ideal, nadir = to_minimisation(norm.ideal), to_minimisation(norm.nadir)
+    return {
+        "ideal": {k: float(v) for k, v in zip(OBJECTIVES, ideal, strict=True)},
+        "nadir": {k: float(v) for k, v in zip(OBJECTIVES, nadir, strict=True)},
+    }
+
+
+def normalisation_from_dict(data: dict) -> Normalisation:
+    """The inverse of :func:`normalisation_dict`."""
+    ideal = to_minimisation(np.array([data["ideal"][k] for k in OBJECTIVES], dtype=float))
+    nadir = to_minimisation(np.array([data["nadir"][k] for k in OBJECTIVES], dtype=float))
+    return Normalisation(ideal, nadir)
+
+
 def _reference(reference, m: int) -> np.ndarray:
     r = np.broadcast_to(np.asarray(reference, dtype=float), (m,)).copy()
     if not np.all(np.isfinite(r)):
@@ -89,8 +140,6 @@ def _front(F: np.ndarray, reference) -> tuple[np.ndarray, np.ndarray]:
     F = F[np.all(np.isfinite(F), axis=1) & np.all(F < r, axis=1)]
     if len(F) < 2:
         return F, r
-    import moocore
-
     return F[moocore.is_nondominated(F, keep_weakly=False)], r
 
 
@@ -177,8 +226,6 @@ def hypervolume_exact(F: np.ndarray, reference) -> float:
 
 def _exact(F: np.ndarray, r: np.ndarray) -> float:
     """:func:`hypervolume_exact` of rows already reduced by :func:`_front`."""
-    import moocore
-
     return float(moocore.hypervolume(F, ref=r)) if len(F) else 0.0
 
 
@@ -422,6 +469,62 @@ def igd(F: np.ndarray, reference_front: np.ndarray) -> float:
     return float(IGD(R)(F))
 
 
+# ------------------------------------------------------------------------------ rank and thin
+def normalise(F: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
+    """Min-max normalise the columns of ``F`` over the rows of ``ref`` (default ``F``) with the one
+    :class:`Normalisation`; an objective constant over ``ref`` carries no preference
+    in a ranking, so it maps to 0 here."""
+    F = np.asarray(F, dtype=float)
+    ref = F if ref is None else np.asarray(ref, dtype=float)
+    if len(ref) == 0:
+        return np.zeros_like(F)
+    norm = Normalisation(ref.min(axis=0), ref.max(axis=0))
+    return np.where(norm.nadir > norm.ideal, norm(F), 0.0)
+
+
+def ideal_distance(F: np.ndarray) -> np.ndarray:
+    """Euclidean distance of each row of ``F`` (minimisation form) to the ideal point, after normalising."""
+    return np.linalg.norm(normalise(F), axis=1)
+
+
+def rank_by(distance: np.ndarray) -> np.ndarray:
+    """1-based ranks, smallest distance first; ties keep the input order."""
+    order = np.argsort(distance, kind="stable")
+    rank = np.empty(len(distance), dtype=np.int64)
+    rank[order] = np.arange(1, len(distance) + 1)
+    return rank
+
+
+def pick_random(n: int, k: int, seed: int) -> np.ndarray:
+    """``min(k, n)`` distinct indices of ``range(n)``, drawn with ``np.random.default_rng(seed)``, sorted."""
+    rng = np.random.default_rng(seed)
+    return np.sort(rng.choice(n, size=min(k, n), replace=False))
+
+
+def pick_diverse(F_norm: np.ndarray, k: int, start: int | Sequence[int] = 0) -> np.ndarray:
+    """Farthest-point sampling: from ``start`` (one row, or seed rows taken first, in order, once each),
+    repeatedly add the row farthest from those picked.
+
+    Deterministic (ties go to the lowest index); returns ``min(k, n)`` indices in the order picked.
+    """
+    F_norm = np.asarray(F_norm, dtype=float)
+    n = len(F_norm)
+    k = min(k, n)
+    seeds = [start] if np.ndim(start) == 0 else list(start)
+    picked = list(dict.fromkeys(int(s) for s in seeds))[:k]
+    if not picked:
+        return np.zeros(0, dtype=np.int64)
+    dmin = np.linalg.norm(F_norm - F_norm[picked[0]], axis=1)
+    for s in picked[1:]:
+        dmin = np.minimum(dmin, np.linalg.norm(F_norm - F_norm[s], axis=1))
+    while len(picked) < k:
+        dmin[picked] = -np.inf
+        nxt = int(np.argmax(dmin))
+        picked.append(nxt)
+        dmin = np.minimum(dmin, np.linalg.norm(F_norm - F_norm[nxt], axis=1))
+    return np.array(picked, dtype=np.int64)
+
+
 __all__ = [
     "CommonSamples",
     "Hypervolume",
@@ -430,6 +533,16 @@ __all__ = [
     "hypervolume_exact",
     "hypervolume_mc",
     "hv_greedy_subset",
+    "ideal_distance",
     "igd",
     "igd_plus",
+    "nondominated_mask",
+    "normalisation_dict",
+    "normalisation_from_dict",
+    "normalise",
+    "pick_diverse",
+    "pick_random",
+    "rank_by",
+    "sense_of",
+    "to_minimisation",
 ]

@@ -72,6 +72,25 @@ def write_text(path: str | os.PathLike, text: str) -> None:
         tmp.write_text(text)
 
 
+def to_arrow(
+    table: pd.DataFrame | pl.DataFrame | pl.LazyFrame | pa.Table | pa.RecordBatch, schema: pa.Schema | None = None
+) -> pa.Table:
+    """Any table as a pyarrow table, with exactly ``schema`` (column order included) when given."""
+    import pandas as pd
+    import polars as pl
+    import pyarrow as pa
+
+    if isinstance(table, pd.DataFrame):
+        return pa.Table.from_pandas(table, schema=schema, preserve_index=False)
+    if isinstance(table, pa.RecordBatch):
+        table = pa.Table.from_batches([table])
+    if isinstance(table, pl.LazyFrame):
+        table = table.collect()
+    if isinstance(table, pl.DataFrame):
+        table = (table if schema is None else table.select(schema.names)).to_arrow()
+    return table if schema is None else table.select(schema.names).cast(schema)
+
+
 def write_parquet(
     path: str | os.PathLike,
     table: pd.DataFrame | pl.DataFrame | pl.LazyFrame | pa.Table,
@@ -80,8 +99,6 @@ def write_parquet(
 ) -> None:
     """Write a Parquet file with an explicit schema (columns must match it exactly)."""
     import pyarrow.parquet as pq
-
-    from hevlib.tables import to_arrow
 
     table = to_arrow(table, schema)
     if metadata:

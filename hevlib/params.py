@@ -12,7 +12,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
 
-from hevlib.design import DESIGN_VARS, OBJECTIVES, DesignSpace
+from hevlib.design import DESIGN_VARS, OBJECTIVES, DesignSpace, objective_indices
 from hevlib.io import read_yaml_mapping
 
 
@@ -333,8 +333,6 @@ class BnnParams(_Strict):
 
     @model_validator(mode="after")
     def _known_log_targets(self):
-        from hevlib.design import objective_indices
-
         objective_indices(self.log_targets, what="log_targets")
         return self
 

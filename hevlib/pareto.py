@@ -8,21 +8,22 @@ The steps of SPEC section 9, each a pure function over tables or arrays:
    ``sources`` the rows it came from (``"nsga3-17+moead-4"``, row numbers within each front file).
    Its ``design_id`` is its first source. Predicted columns come from the first source (simulated
    ones are the same for every source: the simulator is deterministic).
-2. :func:`nondominated_mask` on the simulated objectives in minimisation form (``Y * sense``);
-   designs with a non-finite simulated objective are excluded first and counted.
-3. Screening: each rule of :func:`hevlib.screen.screening_rules` (declared once there, as a polars
-   expression here, a numpy mask or a pymoo constraint elsewhere) gives a pass mask. Every
-   rule is evaluated and reported (how many non-dominated designs it would remove on its own, and how
+2. :func:`hevlib.indicators.nondominated_mask` on the simulated objectives in minimisation form
+   (:func:`hevlib.judging.objective_matrix`: ``Y * sense``); designs with a non-finite simulated objective
+   are excluded first and counted.
+3. Screening (:func:`hevlib.screen.apply_screening`): each rule of :func:`hevlib.screen.screening_rules`
+   (declared once there, as a polars expression here, a numpy mask or a pymoo constraint elsewhere) gives
+   a pass mask. Every rule is evaluated and reported (how many non-dominated designs it would remove on its own, and how
    many it removed in sequence); a rule switched off in ``params.screen`` removes nothing.
-4. Ranking (:func:`ideal_distance`): objectives in minimisation form are min-max normalised over the
+4. Ranking (:func:`hevlib.indicators.ideal_distance`): objectives in minimisation form are min-max normalised over the
    feasible set (a constant objective contributes 0) and each design is ranked by its Euclidean
    distance to the ideal point (the origin of the normalised space); ties keep merge order. The best
    ``n_keep`` are kept -- all of them when fewer are feasible.
 5. Picking ``n_pick`` of the kept designs: ``recommend`` (the default: a shortlist for the validate stage's
    recommendation, :func:`hevlib.recommend.shortlist`; each seed's role in ``pick_role``),
-   :func:`pick_random` (``np.random.default_rng(seed)`` choice without replacement, as the study did) or
-   :func:`pick_diverse` (farthest-point sampling on objectives normalised over the kept set, starting from
-   the best-ranked design; deterministic).
+   :func:`hevlib.indicators.pick_random` (``np.random.default_rng(seed)`` choice without replacement, as the
+   study did) or :func:`hevlib.indicators.pick_diverse` (farthest-point sampling on objectives normalised over
+   the kept set, starting from the best-ranked design; deterministic).
 """
 
 from __future__ import annotations
@@ -32,64 +33,30 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import pandas as pd
 import polars as pl
 import pyarrow as pa
 
-from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, SENSE
-from hevlib.indicators import Hypervolume, Normalisation, hypervolume
-from hevlib.params import OptimiseParams
-from hevlib.screen import SIM, ScreenRule, passing, screening_rules
-from hevlib.tables import Table, columns, lazy, matrix, n_rows
+from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
+from hevlib.indicators import (
+    Normalisation,
+    ideal_distance,
+    nondominated_mask,
+    normalisation_dict,
+    normalise,
+    pick_diverse,
+    pick_random,
+    rank_by,
+)
+from hevlib.judging import HvSettings, objective_matrix, spread
+from hevlib.recommend import shortlist
+from hevlib.screen import SIM, apply_screening, screening_rules
+from hevlib.tables import Table, columns, lazy, n_rows
 
 PRED = "pred_"
 #: Decimals the design variables are rounded to when looking for identical designs.
 DEDUP_DECIMALS = 9
 #: Per-front flags the optimisers write; dropped on merging (dominance and feasibility are recomputed).
 FRONT_FLAGS: tuple[str, ...] = ("nondominated_sim", "feasible")
-_SENSE_OF = dict(zip(OBJECTIVES, SENSE, strict=True))
-
-
-# ----------------------------------------------------------------------------------- dominance
-def nondominated_mask(F: np.ndarray) -> np.ndarray:
-    """Boolean mask of the rows of ``F`` (n, m; all minimised, finite) that no other row dominates
-    (moocore's ``is_nondominated``, in C: Kung, Luccio and Preparata's algorithm, O(n log n) for up to 3
-    objectives and O(n log^(m-2) n) beyond, the naive O(m n^2) loop for small n).
-
-    Duplicated rows do not dominate each other, so all copies of a non-dominated point are kept.
-    """
-    import moocore
-
-    F = np.asarray(F, dtype=float)
-    if F.ndim != 2:
-        raise ValueError(f"non-dominated filter: expected an (n, m) objective matrix, got shape {F.shape}")
-    if len(F) == 0:
-        return np.zeros(0, dtype=bool)
-    return np.asarray(moocore.is_nondominated(F, keep_weakly=True), dtype=bool)
-
-
-def sense_of(objectives: Sequence[str]) -> np.ndarray:
-    """+1 (minimised) / -1 (maximised) per objective name; names outside OBJECTIVES are minimised."""
-    return np.array([_SENSE_OF.get(k, 1.0) for k in objectives])
-
-
-def to_minimisation(Y: np.ndarray, objectives: Sequence[str] = OBJECTIVES) -> np.ndarray:
-    """Objectives (..., m) in natural units -> minimisation form (v_max, f_max negated); its own inverse.
-    The one place maximised objectives change sign."""
-    return np.asarray(Y, dtype=float) * sense_of(objectives)
-
-
-def objective_matrix(
-    table: Table, objectives: Sequence[str] = OBJECTIVES, *, prefix: str = SIM, what: str = "designs"
-) -> np.ndarray:
-    """The (n, m) matrix of ``<prefix><objective>`` columns in minimisation form (maximised ones negated);
-    only those columns of a lazy table are read (null -> NaN)."""
-    cols = [f"{prefix}{k}" for k in objectives]
-    have = set(columns(table))
-    missing = [c for c in cols if c not in have]
-    if missing:
-        raise ValueError(f"{what}: missing objective column(s) {', '.join(missing)}")
-    return to_minimisation(matrix(table, cols), objectives)
 
 
 # ------------------------------------------------------------------------------------- merging
@@ -154,181 +121,7 @@ def algo_names(algo: str) -> list[str]:
     return algo.split("+")
 
 
-# ------------------------------------------------------------------------------------ screening
-def apply_screening(
-    table: Table, rules: Sequence[ScreenRule], candidates: np.ndarray | None = None
-) -> tuple[np.ndarray, dict[str, np.ndarray], dict]:
-    """Evaluate every rule on ``table`` (one pass over the columns the rules read); return (feasible mask,
-    {name: pass mask}, report).
-
-    ``candidates`` (default: all rows) are the designs being screened; the report counts, among them,
-    how many each rule fails on its own (``fails_alone``) and how many it removed when the enabled
-    rules are applied in order (``removed_in_sequence``; 0 for a rule that is switched off).
-    """
-    present = set(columns(table))
-    absent = {r.name for r in rules if not set(r.expr_columns()) <= present}
-    for r in rules:
-        if r.name in absent and r.enabled:
-            missing = sorted(set(r.expr_columns()) - present)
-            raise ValueError(f"screen rule {r.name}: the table has no column {', '.join(missing)}")
-    evaluated = [r for r in rules if r.name not in absent]  # a rule that is off and cannot be evaluated: skipped
-    if evaluated:
-        ok_all = lazy(table).select([r.expr().fill_null(False).alias(r.name) for r in evaluated]).collect()
-    n = len(ok_all) if evaluated else n_rows(table)
-    cand = np.ones(n, dtype=bool) if candidates is None else np.asarray(candidates, dtype=bool)
-    masks, report, alive = {}, {}, cand.copy()
-    for rule in rules:
-        if rule.name in absent:
-            report[rule.name] = {
-                "enabled": False,
-                "rule": rule.description,
-                "limit": rule.limit,
-                "fails_alone": None,
-                "removed_in_sequence": 0,
-                "remaining_after": int(alive.sum()),
-                "note": f"not evaluated: the table has no column {', '.join(rule.expr_columns())}",
-            }
-            continue
-        ok = ok_all[rule.name].to_numpy().astype(bool)
-        masks[rule.name] = ok
-        removed = int(np.sum(alive & ~ok)) if rule.enabled else 0
-        if rule.enabled:
-            alive &= ok
-        report[rule.name] = {
-            "enabled": rule.enabled,
-            "rule": rule.description,
-            "limit": rule.limit,
-            "fails_alone": int(np.sum(cand & ~ok)),
-            "removed_in_sequence": removed,
-            "remaining_after": int(alive.sum()),
-        }
-    return alive, masks, report
-
-
-def passes_screen(table: Table, screen) -> np.ndarray:
-    """(n,) bool: rows (``sim_`` objectives and the design variables) that pass every enabled rule of
-    ``params.screen``."""
-    return apply_screening(table, screening_rules(screen))[0]
-
-
-def simulated_as_front(table: Table) -> Table:
-    """A table of simulated designs (DOE, held-out: unprefixed responses) with the ``sim_`` names a front
-    uses; the same kind of table back (a polars one lazily renamed, nothing read)."""
-    names = {k: f"{SIM}{k}" for k in RESPONSES if k in columns(table)}
-    return table.rename(columns=names) if isinstance(table, pd.DataFrame) else table.rename(names)
-
-
-def screened_normalisation(tables: Sequence[Table], screen) -> Normalisation:
-    """The hypervolume's normalisation: ideal and nadir (minimisation form) of the simulated designs of
-    ``tables`` (``sim_`` columns) that pass the screen, so every objective spans the range of designs a
-    user could pick (not of designs that barely move, which would squeeze fuel and emissions into a
-    sliver near 0). Raises if no design passes."""
-    F = []
-    for t in tables:
-        Ft = objective_matrix(t, OBJECTIVES, what="table")
-        F.append(Ft[passes_screen(t, screen) & np.all(np.isfinite(Ft), axis=1)])
-    F = np.vstack(F) if F else np.zeros((0, len(OBJECTIVES)))
-    if len(F) == 0:
-        raise ValueError("hypervolume normalisation: no simulated design passes the screen")
-    return Normalisation.from_points(F)
-
-
-def judged_normalisation(reference: Table, screen) -> Normalisation:
-    """The normalisation every source is judged on: :func:`screened_normalisation` of the judged scale's
-    reference set (``hev judge``: a large Latin hypercube of admissible designs, unprefixed responses as
-    simulated) -- data no source produced. It scores; no search ever sees it."""
-    return screened_normalisation([simulated_as_front(reference)], screen)
-
-
-def screened_hypervolume(
-    table: Table,
-    screen,
-    norm: Normalisation,
-    reference: float,
-    n_samples: int,
-    seed: int,
-    exact_max_points: int,
-) -> tuple[Hypervolume, int]:
-    """(hypervolume, designs counted) of the screen-passing rows of a front (``sim_`` objectives; every row
-    with finite objectives when ``screen`` is None) on ``norm``, by :func:`hevlib.indicators.hypervolume`."""
-    if n_rows(table) == 0:
-        return hypervolume(
-            np.zeros((0, len(OBJECTIVES))), reference, n_samples=n_samples, seed=seed, exact_max_points=exact_max_points
-        ), 0
-    F = objective_matrix(table, OBJECTIVES, what="front")
-    ok = np.all(np.isfinite(F), axis=1)
-    if screen is not None:
-        ok &= passes_screen(table, screen)
-    hv = hypervolume(norm(F[ok]), reference, n_samples=n_samples, seed=seed, exact_max_points=exact_max_points)
-    return hv, int(ok.sum())
-
-
-@dataclass(frozen=True)
-class HvSettings:
-    """The one hypervolume of every source: simulated objectives of the designs that pass ``screen``
-    (``params.screen``; all designs when None), normalised by ``norm`` (ideal and nadir of screen-passing
-    simulated designs, :func:`screened_normalisation`), up to ``reference`` in every normalised objective;
-    exact up to ``exact_max_points`` non-dominated designs, else Monte Carlo with ``n_samples`` samples
-    seeded by ``seed`` (:func:`hevlib.indicators.hypervolume`)."""
-
-    norm: Normalisation
-    reference: float = OptimiseParams.model_fields["hv_reference"].default
-    n_samples: int = OptimiseParams.model_fields["hv_samples"].default
-    seed: int = OptimiseParams.model_fields["hv_seed"].default
-    screen: object | None = None  # params.screen; None counts every design with finite objectives
-    exact_max_points: int = OptimiseParams.model_fields["hv_exact_max_points"].default
-
-    @classmethod
-    def from_params(cls, norm: Normalisation, optimise, screen) -> HvSettings:
-        """The settings of ``params.optimise`` (``hv_*``) on ``norm``, screening by ``params.screen``."""
-        return cls(
-            norm, optimise.hv_reference, optimise.hv_samples, optimise.hv_seed, screen, optimise.hv_exact_max_points
-        )
-
-    def of(self, table: Table) -> tuple[Hypervolume, int]:
-        """(hypervolume, designs counted) of a front table (``sim_`` columns)."""
-        return screened_hypervolume(
-            table, self.screen, self.norm, self.reference, self.n_samples, self.seed, self.exact_max_points
-        )
-
-    def describe(self) -> dict:
-        return {
-            "space": "simulated objectives of screen-passing designs, minimisation form, (F - ideal) / (nadir - ideal)",
-            "function": "hevlib.indicators.hypervolume",
-            "reference": self.reference,
-            "exact_max_points": self.exact_max_points,
-            "exact": "moocore.hypervolume, when at most exact_max_points non-dominated designs lie below the reference",
-            "fallback": "Monte Carlo: n_samples seeded uniform samples in [min(F), reference], binomial standard error",
-            "n_samples": self.n_samples,
-            "seed": self.seed,
-            "normalisation": normalisation_dict(self.norm),
-        }
-
-
-def spread(table: Table, norm: Normalisation) -> dict[str, float]:
-    """Per objective, the range of a front's simulated values in normalised units (0 = collapsed)."""
-    F = norm(objective_matrix(table, OBJECTIVES, what="front"))
-    F = F[np.all(np.isfinite(F), axis=1)]
-    return {k: (float(np.ptp(F[:, j])) if len(F) else 0.0) for j, k in enumerate(OBJECTIVES)}
-
-
-def normalisation_dict(norm: Normalisation) -> dict:
-    """``{ideal: {objective: value}, nadir: {...}}`` in each objective's own units (natural sense: for
-    ``v_max``, ``f_max`` the ideal is the largest)."""
-    ideal, nadir = to_minimisation(norm.ideal), to_minimisation(norm.nadir)
-    return {
-        "ideal": {k: float(v) for k, v in zip(OBJECTIVES, ideal, strict=True)},
-        "nadir": {k: float(v) for k, v in zip(OBJECTIVES, nadir, strict=True)},
-    }
-
-
-def normalisation_from_dict(data: dict) -> Normalisation:
-    """The inverse of :func:`normalisation_dict`."""
-    ideal = to_minimisation(np.array([data["ideal"][k] for k in OBJECTIVES], dtype=float))
-    nadir = to_minimisation(np.array([data["nadir"][k] for k in OBJECTIVES], dtype=float))
-    return Normalisation(ideal, nadir)
-
-
+# --------------------------------------------------------------------------- the sources compared
 JUDGED_OBJECT = "archive"
 
 
@@ -398,61 +191,6 @@ def source_summary(
 
 
 # ------------------------------------------------------------------------------ rank and pick
-def normalise(F: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
-    """Min-max normalise the columns of ``F`` over the rows of ``ref`` (default ``F``) with the one
-    :class:`~hevlib.indicators.Normalisation`; an objective constant over ``ref`` carries no preference
-    in a ranking, so it maps to 0 here."""
-    F = np.asarray(F, dtype=float)
-    ref = F if ref is None else np.asarray(ref, dtype=float)
-    if len(ref) == 0:
-        return np.zeros_like(F)
-    norm = Normalisation(ref.min(axis=0), ref.max(axis=0))
-    return np.where(norm.nadir > norm.ideal, norm(F), 0.0)
-
-
-def ideal_distance(F: np.ndarray) -> np.ndarray:
-    """Euclidean distance of each row of ``F`` (minimisation form) to the ideal point, after normalising."""
-    return np.linalg.norm(normalise(F), axis=1)
-
-
-def rank_by(distance: np.ndarray) -> np.ndarray:
-    """1-based ranks, smallest distance first; ties keep the input order."""
-    order = np.argsort(distance, kind="stable")
-    rank = np.empty(len(distance), dtype=np.int64)
-    rank[order] = np.arange(1, len(distance) + 1)
-    return rank
-
-
-def pick_random(n: int, k: int, seed: int) -> np.ndarray:
-    """``min(k, n)`` distinct indices of ``range(n)``, drawn with ``np.random.default_rng(seed)``, sorted."""
-    rng = np.random.default_rng(seed)
-    return np.sort(rng.choice(n, size=min(k, n), replace=False))
-
-
-def pick_diverse(F_norm: np.ndarray, k: int, start: int | Sequence[int] = 0) -> np.ndarray:
-    """Farthest-point sampling: from ``start`` (one row, or seed rows taken first, in order, once each),
-    repeatedly add the row farthest from those picked.
-
-    Deterministic (ties go to the lowest index); returns ``min(k, n)`` indices in the order picked.
-    """
-    F_norm = np.asarray(F_norm, dtype=float)
-    n = len(F_norm)
-    k = min(k, n)
-    seeds = [start] if np.ndim(start) == 0 else list(start)
-    picked = list(dict.fromkeys(int(s) for s in seeds))[:k]
-    if not picked:
-        return np.zeros(0, dtype=np.int64)
-    dmin = np.linalg.norm(F_norm - F_norm[picked[0]], axis=1)
-    for s in picked[1:]:
-        dmin = np.minimum(dmin, np.linalg.norm(F_norm - F_norm[s], axis=1))
-    while len(picked) < k:
-        dmin[picked] = -np.inf
-        nxt = int(np.argmax(dmin))
-        picked.append(nxt)
-        dmin = np.minimum(dmin, np.linalg.norm(F_norm - F_norm[nxt], axis=1))
-    return np.array(picked, dtype=np.int64)
-
-
 #: How each ``screen.pick`` chooses the designs to validate (reported in ``reports/pareto.json``).
 PICK_RULES = {
     "recommend": "shortlist for a recommendation (hevlib/recommend.py): the knee of sizing-cycle fc against "
@@ -530,8 +268,6 @@ def select_designs(
     idx_kept = idx_kept[np.argsort(rank[idx_kept], kind="stable")]  # best first
     roles: dict[str, int] = {}
     if screen.pick == "recommend":
-        from hevlib.recommend import shortlist  # it builds on this module's normalise, dominance and sampling
-
         kept_rows = merged[idx_kept].select([f"{SIM}{k}" for k in RESPONSES if f"{SIM}{k}" in merged.columns])
         local, roles = shortlist(kept_rows.to_pandas(), screen.n_pick)
     elif screen.pick == "random":
@@ -634,27 +370,15 @@ def table_schema(table: Table) -> pa.Schema:
 
 
 __all__ = [
-    "nondominated_mask",
-    "sense_of",
-    "objective_matrix",
-    "merge_fronts",
-    "algo_names",
-    "ScreenRule",
-    "passing",
-    "HvSettings",
-    "screened_hypervolume",
-    "judged_normalisation",
-    "screening_rules",
-    "apply_screening",
-    "normalise",
-    "ideal_distance",
-    "rank_by",
-    "pick_random",
-    "pick_diverse",
-    "ParetoResult",
-    "select_designs",
-    "table_schema",
-    "SIM",
-    "PRED",
+    "DEDUP_DECIMALS",
     "FRONT_FLAGS",
+    "JUDGED_OBJECT",
+    "PICK_RULES",
+    "PRED",
+    "ParetoResult",
+    "algo_names",
+    "merge_fronts",
+    "select_designs",
+    "source_summary",
+    "table_schema",
 ]

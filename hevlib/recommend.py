@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES
-from hevlib.pareto import nondominated_mask, normalise, pick_diverse, to_minimisation
+from hevlib.indicators import nondominated_mask, normalise, pick_diverse, to_minimisation
 
 #: Objective groups for "best of each group" (sizing-cycle objectives; SPEC 5).
 GROUPS: dict[str, tuple[str, ...]] = {
@@ -100,7 +100,7 @@ def best_of_group(F_group: np.ndarray) -> int:
 
 
 def minimisation(table: pd.DataFrame, names: Sequence[str], prefix: str = "") -> np.ndarray:
-    """(n, len(names)) of ``prefix + name`` columns in minimisation form (:func:`hevlib.pareto.to_minimisation`)."""
+    """(n, len(names)) of ``prefix + name`` columns in minimisation form (:func:`hevlib.indicators.to_minimisation`)."""
     return to_minimisation(table[[f"{prefix}{n}" for n in names]].to_numpy(dtype=float), names)
 
 

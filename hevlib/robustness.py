@@ -26,8 +26,12 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
+import yaml
 
+from hevlib.codedeps import closure_hash, import_closure
 from hevlib.design import DESIGN_VARS
+from hevlib.doe import simulation_fingerprint
+from hevlib.params import load_params
 from hevlib.recommend import FAMILY_SHARE, KNEE_CRITERIA, same_family
 from hevlib.results import Equivalent, Pick, ValidationSummary, from_json
 
@@ -95,11 +99,6 @@ def fingerprint(raw: Mapping, code_hash: str, sim_fingerprint: str) -> str:
 def settings_fingerprint(params_path: str | Path) -> tuple[dict, str]:
     """The raw params mapping of ``params_path`` and the :func:`fingerprint` of a replicate run with it here (the
     chain's code: :data:`RUN_MODULES`' import closure in this checkout)."""
-    import yaml
-
-    from hevlib.doe import simulation_fingerprint
-    from hevlib.params import load_params
-
     root = Path(__file__).resolve().parents[1]
     raw = yaml.safe_load(Path(params_path).read_text())
     return raw, fingerprint(raw, chain_code_hash(root), simulation_fingerprint(load_params(params_path)))
@@ -120,8 +119,6 @@ PRESENTATION = (
 def chain_code_hash(root: Path) -> str:
     """Short hash of the code that computes a replicate's result: :data:`RUN_MODULES` with everything they import
     but :data:`PRESENTATION`, so that an edit to a plot, a page or a sentence does not run every replicate again."""
-    from hevlib.codedeps import closure_hash, import_closure
-
     root = Path(root)
     files = {p.relative_to(root).as_posix() for m in RUN_MODULES for p in import_closure(root, m).values()}
     return closure_hash(root, (), [f for f in files if not f.startswith(PRESENTATION)])

@@ -4,7 +4,8 @@
   and responses by their plain names): the surrogates' held-out followers, a search's own scales,
   ParEGO's screen-passing designs;
 - :meth:`ScreenRule.expr` -- a polars expression over a table (design variables plain, responses with
-  the ``sim_`` prefix): the pareto stage's screening and every judged hypervolume;
+  the ``sim_`` prefix): :func:`apply_screening` (the pareto stage's screening, with its report) and
+  :func:`passes_screen` (every judged hypervolume);
 - :meth:`ScreenRule.constraint` -- a pymoo inequality column (``<= 0`` feasible, dimensionless) over the
   same kind of mapping: :class:`hevlib.optimise.problem.HevProblem` (with the exact mass and the
   model's speed deviation).
@@ -15,14 +16,14 @@ and reported (how many designs it would remove) but removes nothing.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import polars as pl
 
 from hevlib.design import DESIGN_VARS, gear_set_buildable
-from hevlib.tables import lazy
+from hevlib.tables import Table, columns, lazy, n_rows
 
 Columns = Mapping[str, np.ndarray]
 SIM = "sim_"
@@ -185,9 +186,66 @@ def passes(cols: Columns, screen) -> np.ndarray:
     return ok
 
 
+def apply_screening(
+    table: Table, rules: Sequence[ScreenRule], candidates: np.ndarray | None = None
+) -> tuple[np.ndarray, dict[str, np.ndarray], dict]:
+    """Evaluate every rule on ``table`` (one pass over the columns the rules read); return (feasible mask,
+    {name: pass mask}, report).
+
+    ``candidates`` (default: all rows) are the designs being screened; the report counts, among them,
+    how many each rule fails on its own (``fails_alone``) and how many it removed when the enabled
+    rules are applied in order (``removed_in_sequence``; 0 for a rule that is switched off).
+    """
+    present = set(columns(table))
+    absent = {r.name for r in rules if not set(r.expr_columns()) <= present}
+    for r in rules:
+        if r.name in absent and r.enabled:
+            missing = sorted(set(r.expr_columns()) - present)
+            raise ValueError(f"screen rule {r.name}: the table has no column {', '.join(missing)}")
+    evaluated = [r for r in rules if r.name not in absent]  # a rule that is off and cannot be evaluated: skipped
+    if evaluated:
+        ok_all = lazy(table).select([r.expr().fill_null(False).alias(r.name) for r in evaluated]).collect()
+    n = len(ok_all) if evaluated else n_rows(table)
+    cand = np.ones(n, dtype=bool) if candidates is None else np.asarray(candidates, dtype=bool)
+    masks, report, alive = {}, {}, cand.copy()
+    for rule in rules:
+        if rule.name in absent:
+            report[rule.name] = {
+                "enabled": False,
+                "rule": rule.description,
+                "limit": rule.limit,
+                "fails_alone": None,
+                "removed_in_sequence": 0,
+                "remaining_after": int(alive.sum()),
+                "note": f"not evaluated: the table has no column {', '.join(rule.expr_columns())}",
+            }
+            continue
+        ok = ok_all[rule.name].to_numpy().astype(bool)
+        masks[rule.name] = ok
+        removed = int(np.sum(alive & ~ok)) if rule.enabled else 0
+        if rule.enabled:
+            alive &= ok
+        report[rule.name] = {
+            "enabled": rule.enabled,
+            "rule": rule.description,
+            "limit": rule.limit,
+            "fails_alone": int(np.sum(cand & ~ok)),
+            "removed_in_sequence": removed,
+            "remaining_after": int(alive.sum()),
+        }
+    return alive, masks, report
+
+
+def passes_screen(table: Table, screen) -> np.ndarray:
+    """(n,) bool: rows (``sim_`` objectives and the design variables) that pass every enabled rule of
+    ``params.screen``."""
+    return apply_screening(table, screening_rules(screen))[0]
+
+
 __all__ = [
     "STRICT",
     "ScreenRule",
+    "apply_screening",
     "buildable_gear_set",
     "gen_below_motor",
     "HIGHWAY_V_MAX_KMH",
@@ -195,6 +253,7 @@ __all__ = [
     "min_v_max",
     "not_stalled",
     "passes",
+    "passes_screen",
     "passing",
     "screening_rules",
     "speed_dev_max",

@@ -5,7 +5,7 @@ pandas ``DataFrame`` from a library that needs pandas) and work on a :func:`lazy
 only the columns a step needs, so a 10^6-design table never has all rows of every column in memory at
 once. Parquet schemas stay explicit (pyarrow, units in the names): :func:`write_parquet_batches` writes a
 stream of record batches through one ``pyarrow.parquet.ParquetWriter`` into a temp file renamed on
-success (:func:`hevlib.io.atomic_path`).
+success (:func:`hevlib.io.atomic_path`), each batch converted by :func:`hevlib.io.to_arrow`.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import polars as pl
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from hevlib.io import atomic_path
+from hevlib.io import atomic_path, to_arrow
 
 Table = pl.DataFrame | pl.LazyFrame | pd.DataFrame
 
@@ -70,19 +70,6 @@ def scan(path: str | os.PathLike | Sequence[str | os.PathLike]) -> pl.LazyFrame:
     return pl.scan_parquet([str(q) for q in path])
 
 
-def to_arrow(table: Table | pa.Table | pa.RecordBatch, schema: pa.Schema | None = None) -> pa.Table:
-    """Any table as a pyarrow table, with exactly ``schema`` (column order included) when given."""
-    if isinstance(table, pd.DataFrame):
-        return pa.Table.from_pandas(table, schema=schema, preserve_index=False)
-    if isinstance(table, pa.RecordBatch):
-        table = pa.Table.from_batches([table])
-    if isinstance(table, pl.LazyFrame):
-        table = table.collect()
-    if isinstance(table, pl.DataFrame):
-        table = (table if schema is None else table.select(schema.names)).to_arrow()
-    return table if schema is None else table.select(schema.names).cast(schema)
-
-
 def write_parquet_batches(
     path: str | os.PathLike,
     batches: Iterable[Table | pa.Table | pa.RecordBatch],
@@ -104,4 +91,4 @@ def write_parquet_batches(
     return rows
 
 
-__all__ = ["Table", "lazy", "columns", "n_rows", "matrix", "scan", "to_arrow", "write_parquet_batches"]
+__all__ = ["Table", "lazy", "columns", "n_rows", "matrix", "scan", "write_parquet_batches"]

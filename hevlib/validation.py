@@ -33,13 +33,25 @@ from hevlib.design import (
     BOOL_RESPONSES,
     CHARGE_BALANCE_RESPONSES,
     DESIGN_VARS,
+    INTEGER_MASK,
     MAXIMISED_OBJECTIVES,
     RESPONSES,
     design_matrix,
     design_vector,
 )
 from hevlib.pareto import algo_names
+from hevlib.recommend import (
+    KNEE_CRITERIA,
+    VALIDATED_GROUPS,
+    knee_shares,
+    minimisation,
+    noise_spread,
+    reasons,
+    recommend,
+    separation,
+)
 from hevlib.results import Counts, Equivalent, HighwayRule, Noise, Pick, Recommendation, ValidationSummary
+from hevlib.screen import min_v_max, screening_rules
 
 #: Responses of the improvement table, in its row order.
 IMPROVEMENT_RESPONSES: tuple[str, ...] = (
@@ -387,8 +399,6 @@ def eligibility(
     """The picks on the headline cycle (``cycles[0]``), which of them may be recommended (they meet every
     validation cycle, and reach the highway speed when that rule is on), the failed cycles by design, the
     highway rule and which picks reach its speed."""
-    from hevlib.screen import min_v_max
-
     designs, _ = split_cycle(table, cycles[0])
     fails = failed_cycles(table, cycles)
     ids = designs["vehicle"].astype(str)
@@ -423,8 +433,6 @@ def simulate_twins(
     uniformly within ``+- settings.share`` of their ranges (clipped to the box; the integers kept), simulated on
     ``cycle`` (charge-balanced, as the validation runs). One row per twin: ``vehicle``, ``twin`` (1..), the seven
     variables and every response. Seeded by ``settings.seed``; the designs in the order of ``ids``."""
-    from hevlib.design import INTEGER_MASK
-
     by_id = selected.set_index(selected["design_id"].astype(str))
     X = design_matrix(by_id.loc[list(ids)].reset_index(drop=True), what="twinned designs") if len(ids) else None
     k = int(settings.twins)
@@ -453,8 +461,6 @@ def twins_schema() -> pa.Schema:
 def _equivalents(designs: pd.DataFrame, pool: np.ndarray, chosen: str, twins: pd.DataFrame, by_id, space, settings):
     """``recommendation.noise`` and ``recommendation.equivalents`` (hevlib/recommend.py) for the designs of the
     ``pool`` rows of ``designs`` (headline cycle), each with its rows of ``twins``."""
-    from hevlib.recommend import KNEE_CRITERIA, knee_shares, minimisation, noise_spread, separation
-
     idx = np.flatnonzero(pool)
     ids = designs["vehicle"].astype(str).to_numpy()[idx]
     own = minimisation(designs.iloc[idx].reset_index(drop=True), KNEE_CRITERIA)
@@ -532,9 +538,6 @@ def recommendation(
     of each objective group, each with its reasons (bounds touched, screen margins) and its figures against
     both baselines on every validation cycle; with ``twins`` (:func:`simulate_twins` of the eligible picks) and
     the ``equivalence`` settings also the model's noise and the recommendation's near-equivalents."""
-    from hevlib.recommend import KNEE_CRITERIA, VALIDATED_GROUPS, reasons, recommend
-    from hevlib.screen import screening_rules
-
     head = cycles[0]
     designs, eligible, fails, highway, fast_enough = eligibility(table, cycles, screen)
     ids = designs["vehicle"].astype(str)
@@ -601,8 +604,6 @@ def _near_equivalents(designs, eligible, choice, twins, by_id, space, settings) 
     """``noise`` and ``equivalents`` of the recommendation (none without twins or a recommended design)."""
     if twins is None or settings is None or choice["design"] is None or choice["pool_rule"] != "eligible":
         return None, []
-    from hevlib.recommend import KNEE_CRITERIA
-
     crit = designs[list(KNEE_CRITERIA)].to_numpy(dtype=float)
     pool = np.asarray(eligible, dtype=bool) & np.all(np.isfinite(crit), axis=1)
     return _equivalents(designs, pool, choice["design"], twins, by_id, space, settings)

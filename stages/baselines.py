@@ -11,7 +11,8 @@ from hevlib.io import write_json, write_table
 from hevlib.plots.traces import plot_hybrid_trace
 from hevlib.sizing import scale_engine
 from stages.cli import app
-from stages.common import PARAMS_OPTION, cycle_named, params_from, progress_callback, simulator, stage
+from stages.common import PARAMS_OPTION, params_from, progress_callback, stage
+from stages.simulating import cycle_named, simulator
 
 REPORT = Path("reports/baselines.json")
 BALANCE = Path("reports/baselines_energy.csv")

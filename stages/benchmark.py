@@ -1,5 +1,6 @@
-"""``hev benchmark-run SOURCE`` and ``hev benchmark-report``: the equal-budget, many-seed benchmark of
-every source (its own pipeline, ``benchmarks/surrogate/dvc.yaml``; not part of the default ``dvc repro``).
+"""``hev benchmark-run SOURCE``: the runs of the equal-budget, many-seed benchmark of every source (its own
+pipeline, ``benchmarks/surrogate/dvc.yaml``; not part of the default ``dvc repro``; scored by
+``hev benchmark-report``, :mod:`stages.benchmark_report`).
 
 Each run is written as soon as it ends (``data/benchmark/runs/<source>/run_<k>.parquet``) and a run
 already on disk with the same settings, simulator and run code is not run again, so an interrupted benchmark
@@ -9,31 +10,33 @@ from __future__ import annotations
 
 import hashlib
 import json
+import time
 from functools import partial
 from pathlib import Path
 
+import pyarrow.parquet as pq
 import typer
 
+from hevlib.codedeps import closure_hash
+from hevlib.design import DESIGN_VARS, RESPONSES
+from hevlib.doe import simulation_fingerprint
+from hevlib.io import read_table, write_parquet
+from hevlib.params import BENCHMARK_SOURCES
 from stages.cli import app
-from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_setup, stage
+from stages.common import BENCHMARK_RUNS_DIR, PARAMS_OPTION, params_from, progress_callback, stage
 from stages.doe import DOE
-from stages.judge import REFERENCE
+from stages.simulating import sizing_setup
 
-RUNS_DIR = Path("data/benchmark/runs")
 ROOT = Path(__file__).resolve().parents[1]
 #: The code a stored run executes besides the simulator (whose source is in the simulation fingerprint): the
 #: benchmark's run drivers with everything they import (optimisers, surrogates, and through them the sizing problem
 #: shared with ``hev optimise``). An edit there runs every seed again; a report or plot edit does not.
 RUN_CODE_MODULES: tuple[str, ...] = ("hevlib.benchmark.runs",)
-REPORT_DIR = Path("reports/benchmark")
 
 
 def _settings_fingerprint(cfg, source: str, root: Path = ROOT) -> str:
     """What a stored run depends on: the simulator, the code that runs it (``RUN_CODE_MODULES``), the study's
     optimiser and surrogate settings, the screen, and this source's benchmark settings."""
-    from hevlib.codedeps import closure_hash
-    from hevlib.doe import simulation_fingerprint
-
     blob = json.dumps(
         {
             "sim": simulation_fingerprint(cfg),
@@ -47,7 +50,7 @@ def _settings_fingerprint(cfg, source: str, root: Path = ROOT) -> str:
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
-def run_path(source: str, run: int, runs_dir: Path = RUNS_DIR) -> Path:
+def run_path(source: str, run: int, runs_dir: Path = BENCHMARK_RUNS_DIR) -> Path:
     return Path(runs_dir) / source / f"run_{run}.parquet"
 
 
@@ -57,18 +60,11 @@ def benchmark_run_stage(
     source: str = typer.Argument(..., help="nsga3, moead, moga, parego, nsga3_direct, moead_direct, lhs or oracle"),
     params: str = PARAMS_OPTION,
     fresh: bool = typer.Option(False, "--fresh", help="run every seed again, even those already on disk"),
-    runs_dir: Path = typer.Option(RUNS_DIR, "--runs-dir", help="where the runs are written"),
+    runs_dir: Path = typer.Option(BENCHMARK_RUNS_DIR, "--runs-dir", help="where the runs are written"),
 ) -> None:
     """Run SOURCE's benchmark seeds; write data/benchmark/runs/SOURCE/run_<k>.parquet (every simulation)."""
-    import time
-
-    import pyarrow.parquet as pq
-
-    from hevlib.benchmark.runs import RUN_SCHEMA, RunContext, n_runs, run_seed, run_source
-    from hevlib.design import DESIGN_VARS, RESPONSES
-    from hevlib.io import read_table, write_parquet
+    from hevlib.benchmark.runs import RUN_SCHEMA, RunContext, n_runs, run_seed, run_source  # optimisers: pymoo
     from hevlib.optimise.problem import sizing_problem
-    from hevlib.params import BENCHMARK_SOURCES
 
     cfg = params_from(params)
     if source not in BENCHMARK_SOURCES:
@@ -116,20 +112,3 @@ def benchmark_run_stage(
             },
         )
         typer.echo(f"benchmark-run {source}: run {k} ({table.num_rows} simulations) in {wall:.0f} s -> {out}")
-
-
-@app.command("benchmark-report")
-@stage
-def benchmark_report_stage(
-    params: str = PARAMS_OPTION,
-    runs_dir: Path = typer.Option(RUNS_DIR, "--runs-dir", help="where the runs are"),
-    out_dir: Path = typer.Option(REPORT_DIR, "--out", help="where the report goes"),
-) -> None:
-    """Score every run on one judged object and normalisation; write reports/benchmark/summary.json,
-    curves.csv, runs.csv and anytime.png."""
-    from hevlib.benchmark.report import benchmark_report
-
-    cfg = params_from(params)
-    with progress_callback("benchmark: scoring runs") as cb:
-        out = benchmark_report(cfg, runs_dir, REFERENCE, out_dir, progress=cb)
-    typer.echo(out)

@@ -1,6 +1,6 @@
 """The ``hev`` command: one sub-command per pipeline stage.
 
-Every module in ``stages/`` (other than this one and ``common``) registers its commands on ``app`` when
+Every module in ``stages/`` (other than this one, ``common`` and ``simulating``) registers its commands on ``app`` when
 imported. ``hev <command>`` imports only that command's module (found from the sources by
 :func:`command_index`, nothing imported), so ``hev --help`` answers at once and a bad input
 fails before a stage's heavy imports; :func:`register_all` imports every module (tests, ``CliRunner``).
@@ -32,6 +32,12 @@ def command_index(root: Path) -> dict[str, tuple[str, str]]:
     """Each ``hev`` command with the ``stages`` module that registers it (``@app.command("name")``) and the
     first paragraph of its docstring, read from the sources under ``root`` (nothing imported)."""
     return {name: (module, doc) for name, (module, doc, _) in _scan(root).items()}
+
+
+def command_modules(root: Path) -> dict[str, str]:
+    """Each ``hev`` command with the ``stages`` module that registers it, read from the sources under ``root``:
+    the index :mod:`hevlib.codedeps` takes to find the code a ``dvc.yaml`` stage runs."""
+    return {name: module for name, (module, _) in command_index(root).items()}
 
 
 def _takes_params(node: ast.FunctionDef) -> bool:

@@ -1,4 +1,6 @@
-"""What every stage command shares: params loading, one-line errors, progress bars."""
+"""What every stage command shares: params loading, one-line errors, progress bars, the files one stage writes
+and another reads. The simulator and the cycles are :mod:`stages.simulating`'s, imported only by the stages
+that simulate (so that only their code deps hold ``hevlib/sim``)."""
 
 from __future__ import annotations
 
@@ -13,10 +15,13 @@ import typer
 
 from hevlib.params import Params, ParamsError, load_params
 
-CYCLES_DIR = Path("data/cycles")
-COMPONENTS_DIR = Path("data/components")
 PARAMS_OPTION = typer.Option("params.yaml", "--params", help="params file to validate and use")
-_OPEN: list = []  # simulators a running stage created: their executors (a Dask cluster) close with it
+#: The judged scale's reference set (``hev judge``): it normalises every hypervolume the optimise, pareto and
+#: benchmark stages report.
+REFERENCE = Path("data/judge/reference.parquet")
+#: Where ``hev benchmark-run`` writes each run and ``hev benchmark-report`` reads them.
+BENCHMARK_RUNS_DIR = Path("data/benchmark/runs")
+_OPEN: list = []  # what a running stage opened (a simulator's executor: a Dask cluster): closed with it
 
 
 def stage(fn: Callable) -> Callable:
@@ -35,6 +40,12 @@ def stage(fn: Callable) -> Callable:
                 _OPEN.pop().close()
 
     return wrapper
+
+
+def close_with_stage(resource):
+    """``resource`` (anything with ``close()``), closed when the running stage ends (:func:`stage`)."""
+    _OPEN.append(resource)
+    return resource
 
 
 def params_from(path: str) -> Params:
@@ -62,24 +73,3 @@ def progress_callback(description: str) -> Iterator[Callable[[int, int], None] |
             bar.update(task, completed=done, total=total, **({"description": what} if what else {}))
 
         yield update
-
-
-def cycle_named(name: str):
-    """The processed cycle ``data/cycles/<name>.parquet`` (grade and key-off periods attached)."""
-    from hevlib.cycles import Cycle
-
-    return Cycle.from_parquet(CYCLES_DIR / f"{name}.parquet", name)
-
-
-def simulator(params):
-    """The simulator on the components stage's normalised maps."""
-    from hevlib.sim.simulator import Simulator  # numba kernels: only loaded to simulate
-
-    sim = Simulator.from_params(params, components_dir=str(COMPONENTS_DIR))
-    _OPEN.append(sim)  # closed when the stage ends (stage)
-    return sim
-
-
-def sizing_setup(params):
-    """The simulator and the sizing cycle (``cycles.sizing``, grade attached)."""
-    return simulator(params), cycle_named(params.cycles.sizing)

@@ -8,7 +8,7 @@ import typer
 
 from hevlib.codedeps import check_deps, generated_deps, write_deps
 from hevlib.io import atomic_path
-from stages.cli import app
+from stages.cli import app, command_modules
 
 
 @app.command("deps")
@@ -21,14 +21,14 @@ def deps(
     root = next(p for p in dvc_yaml.resolve().parents if (p / "stages").is_dir() and (p / "hevlib").is_dir())
     text = dvc_yaml.read_text()
     if check:
-        problems = check_deps(root, text)
+        problems = check_deps(root, text, command_modules(root))
         for p in problems:
             typer.echo(f"error: {p}", err=True)
         if problems:
             raise typer.Exit(code=1)
         typer.echo(f"deps: every stage of {dvc_yaml} declares the code it imports")
         return
-    lists = generated_deps(root, text)
+    lists = generated_deps(root, text, command_modules(root))
     if write:
         new = write_deps(text, lists)
         if new != text:

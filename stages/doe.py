@@ -9,7 +9,8 @@ import typer
 from hevlib import doe
 from hevlib.io import write_json
 from stages.cli import app
-from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_setup, stage
+from stages.common import PARAMS_OPTION, params_from, progress_callback, stage
+from stages.simulating import sizing_setup
 
 DOE = Path("data/doe/doe.parquet")
 REPORT = Path("reports/doe.json")

@@ -8,7 +8,8 @@ import typer
 
 from hevlib import doe
 from stages.cli import app
-from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_setup, stage
+from stages.common import PARAMS_OPTION, params_from, progress_callback, stage
+from stages.simulating import sizing_setup
 
 HELDOUT = Path("data/doe/heldout.parquet")
 

@@ -3,23 +3,21 @@ that no search produces or sees; its screen-passing designs normalise every hype
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import typer
 
 from hevlib import doe
 from stages.cli import app
-from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_setup, stage
-
-REFERENCE = Path("data/judge/reference.parquet")
+from stages.common import PARAMS_OPTION, REFERENCE, params_from, progress_callback, stage
+from stages.simulating import sizing_setup
 
 
 @app.command("judge")
 @stage
 def judge_stage(params: str = PARAMS_OPTION) -> None:
     """Simulate params.optimise.judge.n admissible Latin-hypercube designs; write data/judge/reference.parquet."""
+    from hevlib.judging import simulated_as_front
     from hevlib.optimise.problem import RulesOnly, admissible_lhs, sizing_problem
-    from hevlib.pareto import passes_screen, simulated_as_front
+    from hevlib.screen import passes_screen
 
     cfg = params_from(params)
     j = cfg.optimise.judge

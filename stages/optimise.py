@@ -14,9 +14,9 @@ from hevlib.io import read_table, write_json, write_parquet
 from hevlib.plots import save_figure
 from hevlib.plots.fronts import front_figure
 from stages.cli import app
-from stages.common import PARAMS_OPTION, params_from, progress_callback, sizing_setup, stage
+from stages.common import PARAMS_OPTION, REFERENCE, params_from, progress_callback, stage
 from stages.doe import DOE
-from stages.judge import REFERENCE
+from stages.simulating import sizing_setup
 
 FRONTS_DIR = Path("data/pareto")
 REPORTS_DIR = Path("reports")
@@ -42,10 +42,10 @@ def optimise_stage(
     reports/optimise_SOURCE.json and reports/plots/optimise_SOURCE.png."""
     from hevlib.design import DESIGN_VARS, RESPONSES
     from hevlib.doe import training_data
-    from hevlib.optimise import HvSettings, oracle, surrogate_assisted
+    from hevlib.judging import HvSettings, judged_normalisation
+    from hevlib.optimise import oracle, surrogate_assisted
     from hevlib.optimise.archive import ARCHIVE_SCHEMA, SimulationLog
     from hevlib.optimise.problem import sizing_problem
-    from hevlib.pareto import judged_normalisation
 
     cfg = params_from(params)
     o = cfg.optimise

@@ -8,14 +8,14 @@ from pathlib import Path
 import polars as pl
 
 from hevlib.io import read_table, write_json, write_parquet, write_text
-from hevlib.pareto import judged_normalisation, select_designs, source_summary, table_schema
+from hevlib.judging import judged_normalisation
+from hevlib.pareto import select_designs, source_summary, table_schema
 from hevlib.plots import save_figure
 from hevlib.plots.pareto import distributions_figure, infill_figure, tradeoff_data, tradeoffs_figure
 from hevlib.recommend import active_bounds
 from hevlib.tables import scan
 from stages.cli import app
-from stages.common import PARAMS_OPTION, params_from, stage
-from stages.judge import REFERENCE
+from stages.common import PARAMS_OPTION, REFERENCE, params_from, stage
 
 FRONTS_DIR = Path("data/pareto")
 MERGED = FRONTS_DIR / "merged.parquet"

@@ -19,6 +19,15 @@ from pathlib import Path
 import typer
 import yaml
 
+from hevlib.io import write_json, write_text
+from hevlib.robustness import (
+    SHARED_INPUTS,
+    collect,
+    replicate_params,
+    replicate_seeds,
+    settings_fingerprint,
+    summarise,
+)
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, stage
 
@@ -32,9 +41,6 @@ REPORT = REPORT_DIR / "summary.json"
 
 def _prepare(folder: Path, raw: dict, replicate: int) -> None:
     """A fresh replicate folder: its params.yaml and links to the shared inputs."""
-    from hevlib.io import write_text
-    from hevlib.robustness import SHARED_INPUTS, replicate_params
-
     for rel in SHARED_INPUTS:
         if not Path(rel).exists():
             raise FileNotFoundError(f"{rel}: no such input; run `dvc repro` first")
@@ -73,16 +79,11 @@ def robustness(
     cfg = params_from(params)
     if cfg.optimise is None:
         raise ValueError("params.yaml: optimise: group missing (the robustness study reruns the optimisers)")
-    from hevlib.robustness import settings_fingerprint
-
     raw, fp = settings_fingerprint(params)
     n = cfg.robustness.seeds
     if action == "report":
         _report(cfg, fp, n)
         return
-    from hevlib.io import write_json
-    from hevlib.robustness import collect, replicate_seeds
-
     for k in range(n):
         folder = RUNS_DIR / f"rep_{k}"
         result = folder / "result.json"
@@ -113,10 +114,8 @@ def robustness(
 
 
 def _report(cfg, fp: str, n: int) -> None:
-    from hevlib.io import write_json
-    from hevlib.plots import save_figure
+    from hevlib.plots import save_figure  # matplotlib: only the report draws
     from hevlib.plots.robustness import seed_spread_figure
-    from hevlib.robustness import collect, summarise
 
     results = []
     for k in range(n):

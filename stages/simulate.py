@@ -7,7 +7,8 @@ from pathlib import Path
 import typer
 
 from stages.cli import app
-from stages.common import PARAMS_OPTION, cycle_named, params_from, simulator, stage
+from stages.common import PARAMS_OPTION, params_from, stage
+from stages.simulating import cycle_named, simulator
 
 #: Designs ``--trace`` records at most (a trace is one row per step and design).
 MAX_TRACED = 50

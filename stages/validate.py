@@ -13,6 +13,7 @@ from hevlib.plots import save_figure
 from hevlib.plots.validation import catalyst_figure, improvement_figure, traces_figure
 from hevlib.report import build_summary
 from hevlib.results import to_json
+from hevlib.robustness import settings_fingerprint
 from hevlib.validation import (
     answer,
     cold_start_window_s,
@@ -31,7 +32,8 @@ from hevlib.validation import (
     validation_table,
 )
 from stages.cli import app
-from stages.common import CYCLES_DIR, PARAMS_OPTION, cycle_named, params_from, simulator, stage
+from stages.common import PARAMS_OPTION, params_from, stage
+from stages.simulating import CYCLES_DIR, cycle_named, simulator
 
 SELECTED = Path("data/pareto/selected.parquet")
 PARETO_JSON = Path("reports/pareto.json")
@@ -51,8 +53,6 @@ def _robustness(params_path: str) -> dict | None:
     """The committed robustness summary, with ``current``: whether it was made with these settings and code."""
     if not ROBUSTNESS.exists():
         return None
-    from hevlib.robustness import settings_fingerprint
-
     summary = json.loads(ROBUSTNESS.read_text())
     return {**summary, "current": summary.get("fingerprint") == settings_fingerprint(params_path)[1]}
 

@@ -6,6 +6,8 @@ import time
 
 import typer
 
+from hevlib import numba_cache_dir
+from hevlib.warmup import compile_table, timed_warm_up
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, stage
 
@@ -22,9 +24,6 @@ def warmup(
     """Compile and cache the simulator kernels, so the first `dvc repro` runs as fast as the next; print
     what was compiled and how long each function took (the hybrid and the conventional kernels compile in
     processes of their own, side by side)."""
-    from hevlib import numba_cache_dir
-    from hevlib.warmup import compile_table, timed_warm_up
-
     start = time.perf_counter()
     times = timed_warm_up(params_from(params_path), processes=processes or None)
     wall = time.perf_counter() - start

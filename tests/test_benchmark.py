@@ -24,9 +24,16 @@ from hevlib.benchmark.scoring import (
     score_runs,
 )
 from hevlib.design import OBJECTIVES, RESPONSES
-from hevlib.indicators import CommonSamples, Normalisation, hv_greedy_subset, hypervolume_exact, igd_plus
+from hevlib.indicators import (
+    CommonSamples,
+    Normalisation,
+    hv_greedy_subset,
+    hypervolume_exact,
+    igd_plus,
+    pick_diverse,
+    to_minimisation,
+)
 from hevlib.params import load_params
-from hevlib.pareto import pick_diverse, to_minimisation
 
 
 # ----------------------------------------------------------------------------------- statistics

@@ -14,7 +14,6 @@ import pytest
 
 from hevlib.codedeps import (
     check_deps,
-    command_modules,
     compact,
     declared_deps,
     generated_deps,
@@ -22,30 +21,43 @@ from hevlib.codedeps import (
     stage_commands,
     write_deps,
 )
+from stages.cli import command_modules
 
 REPO = Path(__file__).resolve().parents[1]
 DVC_YAML = (REPO / "dvc.yaml").read_text()
+COMMANDS = command_modules(REPO)  # the CLI's index, handed to the library (which never imports stages)
 BIN = Path(sys.executable).parent
 
 
 def test_every_stage_declares_exactly_the_code_it_imports():
-    problems = check_deps(REPO, DVC_YAML)
+    problems = check_deps(REPO, DVC_YAML, COMMANDS)
     assert not problems, "\n".join(map(str, problems))
 
 
 def test_every_stage_runs_a_registered_command_module():
-    commands = stage_commands(REPO, DVC_YAML)
+    commands = stage_commands(DVC_YAML, COMMANDS)
     assert commands["heldout"] == "stages.heldout" and commands["oracle"] == commands["optimise"] == "stages.optimise"
-    assert set(command_modules(REPO).values()) >= set(commands.values())
+    assert set(COMMANDS.values()) >= set(commands.values())
 
 
 def test_the_simulating_stages_do_not_depend_on_plots_reports_or_surrogates():
-    deps = generated_deps(REPO, DVC_YAML)
+    deps = generated_deps(REPO, DVC_YAML, COMMANDS)
     for stage in ("doe", "heldout"):
         assert not [d for d in deps[stage] if d.startswith(("hevlib/plots", "hevlib/report", "hevlib/surrogates"))]
         assert "hevlib/sim" in deps[stage]  # the simulator wing, whole
     assert "hevlib/plots/validation.py" in deps["validate"]
     assert not [s for s, d in deps.items() if "hevlib/plots/validation.py" in d and s != "validate"]
+
+
+def test_only_the_stages_that_simulate_depend_on_the_simulator():
+    deps = generated_deps(REPO, DVC_YAML, COMMANDS)
+    simulating = {s for s, d in deps.items() if "hevlib/sim" in d or "hevlib/sim/simulator.py" in d}
+    calls_it = {"baselines", "doe", "heldout", "judge", "surrogates", "oracle", "optimise", "bayes", "validate"}
+    assert simulating == calls_it  # surrogates: the held-out set, simulated again when params changed
+    for stage in ("cycles", "pareto"):
+        assert not [d for d in deps[stage] if d.startswith(("hevlib/sim", "stages/simulating.py"))], stage
+    report = generated_deps(REPO, (REPO / "benchmarks/surrogate/dvc.yaml").read_text(), COMMANDS)["report"]
+    assert not [d for d in report if d.startswith(("hevlib/sim", "stages/simulating.py"))]
 
 
 def _package(root: Path, files: dict[str, str]) -> None:
@@ -78,20 +90,20 @@ def test_the_closure_follows_lazy_relative_and_parent_package_imports(tmp_path):
 def test_a_stage_whose_deps_omit_an_imported_module_fails_the_check():
     line = "      - hevlib/plots/validation.py\n"
     assert line in DVC_YAML
-    problems = check_deps(REPO, DVC_YAML.replace(line, ""))
+    problems = check_deps(REPO, DVC_YAML.replace(line, ""), COMMANDS)
     assert [p.stage for p in problems] == ["validate"]
     assert problems[0].missing == ("hevlib/plots/validation.py",) and "hev deps --write" in str(problems[0])
     # the old blanket deps are no longer what the stages import either
     blanket = write_deps(DVC_YAML, {s: ["hevlib", "stages"] for s in declared_deps(DVC_YAML)})
-    assert {p.stage for p in check_deps(REPO, blanket)} == set(declared_deps(DVC_YAML))
+    assert {p.stage for p in check_deps(REPO, blanket, COMMANDS)} == set(declared_deps(DVC_YAML))
 
 
 def test_write_deps_replaces_only_the_code_deps_and_is_idempotent():
     blanket = write_deps(DVC_YAML, {s: ["hevlib", "stages"] for s in declared_deps(DVC_YAML)})
     assert "      - hevlib\n      - stages\n" in blanket
-    regenerated = write_deps(blanket, generated_deps(REPO, blanket))
+    regenerated = write_deps(blanket, generated_deps(REPO, blanket, COMMANDS))
     assert regenerated == DVC_YAML
-    assert write_deps(regenerated, generated_deps(REPO, regenerated)) == regenerated
+    assert write_deps(regenerated, generated_deps(REPO, regenerated, COMMANDS)) == regenerated
 
 
 def test_hev_deps_check_exits_1_naming_the_stage(tmp_path):

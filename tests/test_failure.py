@@ -14,7 +14,8 @@ from hevlib.doe import l27_designs, lhs_designs
 from hevlib.io import read_yaml_mapping
 from hevlib.optimise import ALGORITHMS, HevProblem, drop_stalled, optimise, optimise_and_resimulate
 from hevlib.params import AlgoParams
-from hevlib.pareto import screening_rules, select_designs
+from hevlib.pareto import select_designs
+from hevlib.screen import screening_rules
 from hevlib.sim.drive import conventional_equivalent_mass_kg, split_design, split_equivalent_mass_kg
 from hevlib.sim.powertrain import hybrid as split
 from hevlib.sim.simulator import energy_balance, failure_ceilings
@@ -235,7 +236,7 @@ def test_optimise_and_resimulate_reports_the_stalled_it_dropped(sim, cycles):
     oracle = SimulatorSurrogate(sim, cycles["udds"])
     problem = HevProblem(oracle, WEAK_CORNER, sim.mass_kg, 1195.0)  # no stall constraint: surrogate path
     from hevlib.indicators import Normalisation
-    from hevlib.optimise import HvSettings
+    from hevlib.judging import HvSettings
 
     hv = HvSettings(Normalisation(np.zeros(11), np.ones(11) * 1e3), 1.1, 2000, 0)
     res = optimise_and_resimulate(problem, "nsga3", TINY["nsga3"], lambda X: sim.run(X, cycles["udds"]), hv)

@@ -12,28 +12,25 @@ import pytest
 from test_optimise import SMALL, SPACE, AnalyticSurrogate, stand_in_mass_kg, stand_in_simulate
 
 from hevlib.design import DESIGN_VARS, INTEGER_MASK, OBJECTIVES
-from hevlib.indicators import Normalisation
+from hevlib.indicators import (
+    Normalisation,
+    nondominated_mask,
+    normalisation_dict,
+    normalisation_from_dict,
+    to_minimisation,
+)
+from hevlib.judging import HvSettings, screened_hypervolume, screened_normalisation, simulated_as_front
 from hevlib.optimise import (
     HevProblem,
-    HvSettings,
     SimulatorModel,
     optimise,
     optimise_and_resimulate,
     oracle,
     select_candidates,
     surrogate_assisted,
-    to_minimisation,
 )
 from hevlib.params import AlgoParams, InfillParams, OracleParams, ScreenParams
-from hevlib.pareto import (
-    nondominated_mask,
-    normalisation_dict,
-    normalisation_from_dict,
-    passes_screen,
-    screened_hypervolume,
-    screened_normalisation,
-    simulated_as_front,
-)
+from hevlib.screen import passes_screen
 
 SCREEN = ScreenParams(speed_dev_max=1.0, mass_max_kg=1195.0, gen_below_motor=False, buildable_gear_set=False)
 

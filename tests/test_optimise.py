@@ -22,12 +22,12 @@ from hevlib.design import (
     gear_set_buildable,
     nearest_gear_set,
 )
-from hevlib.indicators import Normalisation, igd
+from hevlib.indicators import Normalisation, igd, nondominated_mask, to_minimisation
 from hevlib.io import write_parquet
+from hevlib.judging import HvSettings
 from hevlib.optimise import (
     ALGORITHMS,
     HevProblem,
-    HvSettings,
     IntegerRepair,
     moead,
     moga,
@@ -35,12 +35,10 @@ from hevlib.optimise import (
     optimise,
     optimise_and_resimulate,
     reference_directions,
-    to_minimisation,
     weighted_sum_ranks,
 )
 from hevlib.optimise.algorithms import _riesz_directions
 from hevlib.params import AlgoParams
-from hevlib.pareto import nondominated_mask
 
 ROOT = Path(__file__).resolve().parents[1]
 SPACE = DesignSpace.from_bounds(

@@ -13,22 +13,20 @@ import pytest
 from typer.testing import CliRunner
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES, gear_set_buildable
+from hevlib.indicators import ideal_distance, nondominated_mask, normalise, pick_diverse, pick_random, rank_by
+from hevlib.judging import objective_matrix
 from hevlib.params import ParamsError, ScreenParams, load_params
-from hevlib.pareto import (
+from hevlib.pareto import merge_fronts, select_designs
+from hevlib.screen import (
     apply_screening,
-    ideal_distance,
-    merge_fronts,
-    nondominated_mask,
-    normalise,
-    objective_matrix,
+    buildable_gear_set,
+    gen_below_motor,
+    mass_max,
+    not_stalled,
     passing,
-    pick_diverse,
-    pick_random,
-    rank_by,
     screening_rules,
-    select_designs,
+    speed_dev_max,
 )
-from hevlib.screen import buildable_gear_set, gen_below_motor, mass_max, not_stalled, speed_dev_max
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -18,10 +18,10 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
-from hevlib.io import _jsonable
+from hevlib.io import _jsonable, to_arrow
 from hevlib.params import load_params
 from hevlib.pareto import select_designs, table_schema
-from hevlib.tables import scan, to_arrow
+from hevlib.tables import scan
 
 REPO = Path(__file__).resolve().parents[1]
 REF = REPO / "tests" / "data" / "pareto_reference"

@@ -9,8 +9,9 @@ import pytest
 from test_pareto import synthetic_front
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES
+from hevlib.indicators import pick_diverse
 from hevlib.params import DesignSpaceParams, ScreenParams
-from hevlib.pareto import pick_diverse, select_designs
+from hevlib.pareto import select_designs
 from hevlib.recommend import (
     FAMILY_SHARE,
     FLAG_SHARE,

@@ -32,9 +32,9 @@ from hevlib.benchmark.scoring import (
     score_runs,
     summary_stats,
 )
-from hevlib.indicators import CommonSamples, Normalisation
+from hevlib.indicators import CommonSamples, Normalisation, normalisation_dict
 from hevlib.io import read_table, write_json, write_table
-from hevlib.pareto import judged_normalisation, normalisation_dict
+from hevlib.judging import judged_normalisation
 
 
 def load_runs(cfg, runs_dir: Path) -> tuple[list[Run], dict[str, float]]:

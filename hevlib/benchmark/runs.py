@@ -30,9 +30,14 @@ import pandas as pd
 import pyarrow as pa
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES
+from hevlib.indicators import Normalisation, to_minimisation
+from hevlib.judging import HvSettings, screened_normalisation, simulated_as_front
 from hevlib.optimise.archive import ARCHIVE_SCHEMA, SimulationLog
-from hevlib.optimise.problem import RulesOnly
+from hevlib.optimise.bayesopt import BayesSettings, bayes_search
+from hevlib.optimise.infill import oracle, surrogate_assisted
+from hevlib.optimise.problem import RulesOnly, admissible_lhs
 from hevlib.params import BENCHMARK_SOURCES, AlgoParams, Params
+from hevlib.surrogates import fit_surrogate
 
 BAYES = ("parego", "nehvi")
 SAEA = ("nsga3", "moead", "moga", *BAYES)
@@ -85,23 +90,15 @@ def run_source(ctx: RunContext, source: str, run: int) -> pa.Table:
 def _hv_cheap(ctx: RunContext):
     """Hypervolume settings for the optimisers' own round reports (not the benchmark's judgement: the
     scoring recomputes everything from the record), cheap and on a normalisation of the DOE alone."""
-    from hevlib.pareto import HvSettings, screened_normalisation, simulated_as_front
-
     doe = simulated_as_front(ctx.R_doe.assign(**{v: ctx.X_doe[:, j] for j, v in enumerate(DESIGN_VARS)}))
     try:
         norm = screened_normalisation([doe], ctx.cfg.screen)
     except ValueError:
-        from hevlib.indicators import Normalisation
-        from hevlib.pareto import to_minimisation
-
         norm = Normalisation.from_points(to_minimisation(ctx.R_doe[list(OBJECTIVES)].to_numpy(dtype=float)))
     return HvSettings(norm, n_samples=1000, seed=0, screen=ctx.cfg.screen, exact_max_points=0)
 
 
 def _saea(ctx: RunContext, source: str, seed: int, log: SimulationLog) -> str:
-    from hevlib.optimise.infill import surrogate_assisted
-    from hevlib.surrogates import fit_surrogate
-
     cfg = ctx.cfg
     settings: AlgoParams = cfg.optimise.algorithms[source].model_copy(update={"seed": seed % (2**31)})
     infill = cfg.optimise.infill
@@ -123,8 +120,6 @@ def _saea(ctx: RunContext, source: str, seed: int, log: SimulationLog) -> str:
 
 
 def _bayes(ctx: RunContext, source: str, seed: int, log: SimulationLog) -> str:
-    from hevlib.optimise.bayesopt import BayesSettings, bayes_search
-
     cfg = ctx.cfg
     b = cfg.optimise.bayes.get(source)
     if b is None:
@@ -140,15 +135,11 @@ def _bayes(ctx: RunContext, source: str, seed: int, log: SimulationLog) -> str:
 
 
 def _lhs(ctx: RunContext, seed: int, log: SimulationLog) -> str:
-    from hevlib.optimise.problem import admissible_lhs
-
     log(admissible_lhs(ctx.make_problem(RulesOnly()), ctx.cfg.design_space.space(), ctx.cfg.benchmark.budget, seed))
     return "all"
 
 
 def _direct(ctx: RunContext, source: str, seed: int, log: SimulationLog) -> np.ndarray:
-    from hevlib.optimise.infill import oracle
-
     cfg = ctx.cfg
     if source == "oracle":
         settings = cfg.optimise.oracle.model_copy(update={"seed": seed % (2**31)})

@@ -28,8 +28,9 @@ import pandas as pd
 
 from hevlib.benchmark.runs import CEILING, DIRECT, KIND, SAEA
 from hevlib.design import OBJECTIVES
-from hevlib.indicators import CommonSamples, Normalisation, igd_plus
-from hevlib.pareto import nondominated_mask, objective_matrix, passes_screen
+from hevlib.indicators import CommonSamples, Normalisation, igd_plus, nondominated_mask
+from hevlib.judging import objective_matrix
+from hevlib.screen import passes_screen
 
 JUDGED_OBJECT = "archive"
 

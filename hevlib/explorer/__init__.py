@@ -21,7 +21,9 @@ from pathlib import Path
 import pandas as pd
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES, SENSE, UNITS
-from hevlib.pareto import SIM, algo_names
+from hevlib.io import write_text
+from hevlib.pareto import algo_names
+from hevlib.screen import SIM
 
 _HERE = resources.files(__name__)
 
@@ -106,8 +108,6 @@ def explorer_html(data: dict) -> str:
 
 def write_explorer(path: str | Path, data: dict) -> None:
     """Write the page whole (temporary file, then rename)."""
-    from hevlib.io import write_text
-
     write_text(Path(path), explorer_html(data))
 
 

@@ -36,9 +36,8 @@ from hevlib.optimise.infill import (
     surrogate_assisted,
 )
 from hevlib.optimise.problem import HevProblem, IntegerRepair, SimulatorModel
-from hevlib.optimise.report import HvSettings, front_report, runtimes, surrogate_error
+from hevlib.optimise.report import front_report, runtimes, surrogate_error
 from hevlib.optimise.resim import drop_stalled, front_schema, front_table, resimulate
-from hevlib.pareto import normalisation_dict, normalisation_from_dict, to_minimisation
 
 BAYES_SOURCES = ("parego", "nehvi")
 SOURCES = (*ALGORITHMS, *BAYES_SOURCES, "oracle")
@@ -50,7 +49,6 @@ __all__ = [
     "SOURCES",
     "Front",
     "HevProblem",
-    "HvSettings",
     "bayes",
     "IntegerRepair",
     "SimulatorModel",
@@ -62,8 +60,6 @@ __all__ = [
     "front_table",
     "moead",
     "moga",
-    "normalisation_dict",
-    "normalisation_from_dict",
     "nsga3",
     "optimise",
     "optimise_and_resimulate",
@@ -75,6 +71,5 @@ __all__ = [
     "select_candidates",
     "surrogate_assisted",
     "surrogate_error",
-    "to_minimisation",
     "weighted_sum_ranks",
 ]

@@ -28,11 +28,10 @@ from pymoo.optimize import minimize
 from pymoo.util.ref_dirs.energy import RieszEnergyReferenceDirectionFactory
 from pymoo.util.reference_direction import UniformReferenceDirectionFactory
 
-from hevlib.indicators import Normalisation
+from hevlib.indicators import Normalisation, nondominated_mask
 from hevlib.optimise.moead import MOEADBounded
 from hevlib.optimise.problem import NOT_EVALUATED, HevProblem, _evaluate_base, _integer_repair, _Reformulated, _repaired
 from hevlib.params import AlgoParams
-from hevlib.pareto import nondominated_mask
 
 #: Distribution indices of simulated binary crossover and polynomial mutation (Deb's usual values).
 SBX_ETA = 15.0

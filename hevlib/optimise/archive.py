@@ -17,7 +17,7 @@ import pandas as pd
 import pyarrow as pa
 
 from hevlib.design import BOOL_RESPONSES, DESIGN_VARS, RESPONSES
-from hevlib.pareto import SIM
+from hevlib.screen import SIM
 
 ARCHIVE_SCHEMA = pa.schema(
     [

@@ -45,6 +45,7 @@ import numpy as np
 import pandas as pd
 
 from hevlib.design import DESIGN_VARS, INTEGER_MASK, OBJECTIVES, DesignSpace
+from hevlib.determinism import torch as _torch  # torch itself is imported on the first call
 from hevlib.optimise.problem import HevProblem
 
 ACQUISITIONS = ("parego", "nehvi")
@@ -155,12 +156,6 @@ class MixedSpace:
         if not np.all(hit.any(axis=1)):
             raise ValueError("design with a gear set outside the search's gear sets")
         return np.column_stack([X[:, :5], np.argmax(hit, axis=1).astype(float)])
-
-
-def _torch():
-    from hevlib.determinism import torch
-
-    return torch()
 
 
 def linear_rules(problem: HevProblem, space: DesignSpace) -> list[tuple[np.ndarray, np.ndarray, float]]:

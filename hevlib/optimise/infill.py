@@ -34,14 +34,16 @@ import pandas as pd
 import pyarrow as pa
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES, DesignSpace
-from hevlib.indicators import Normalisation, hv_greedy_subset
+from hevlib.indicators import Normalisation, hv_greedy_subset, nondominated_mask, pick_diverse, to_minimisation
+from hevlib.judging import HvSettings, objective_matrix
 from hevlib.optimise.algorithms import Front, optimise
 from hevlib.optimise.archive import SimulationLog
+from hevlib.optimise.bayesopt import BayesSettings, bayes_search
 from hevlib.optimise.problem import HevProblem, RulesOnly, SimulatorModel
-from hevlib.optimise.report import HvSettings, front_report, runtimes
+from hevlib.optimise.report import front_report, runtimes
 from hevlib.optimise.resim import drop_stalled, front_schema, front_table, resimulate
 from hevlib.params import AlgoParams, BayesParams, InfillParams
-from hevlib.pareto import nondominated_mask, objective_matrix, passes_screen, pick_diverse, to_minimisation
+from hevlib.screen import passes_screen
 from hevlib.screen import speed_dev_max as speed_dev_rule
 
 ROUND = "round"
@@ -217,8 +219,6 @@ def bayes(
     """A BoTorch source (:func:`hevlib.optimise.bayesopt.bayes_search`) from the DOE until
     ``settings.budget`` simulations (the DOE's included), judged like every source on its archive; its
     front is drawn from the archive as the oracle's is (thinned to ``max_size``)."""
-    from hevlib.optimise.bayesopt import BayesSettings, bayes_search
-
     t0 = time.perf_counter()
     log = simulate if isinstance(simulate, SimulationLog) else SimulationLog(simulate)
     log.record(X_doe, R_doe)

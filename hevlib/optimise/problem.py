@@ -23,8 +23,8 @@ from hevlib.design import (
     buildable_gear_sets,
     nearest_gear_set,
 )
-from hevlib.indicators import Normalisation
-from hevlib.pareto import to_minimisation
+from hevlib.doe import lhs_designs
+from hevlib.indicators import Normalisation, to_minimisation
 
 #: Objectives (minimisation form) of a design that breaks an exact rule and so was never evaluated.
 NOT_EVALUATED = 1e12
@@ -240,8 +240,6 @@ def admissible_lhs(problem: HevProblem, space: DesignSpace, n: int, seed: int) -
     """``n`` designs of a seeded Latin hypercube (:func:`hevlib.doe.lhs_designs`), integers and gear sets
     repaired, that meet every exact rule: the first ``n`` admissible rows of the smallest hypercube of
     ``n * k`` designs that has them (designs that break a rule are never simulated, by any source)."""
-    from hevlib.doe import lhs_designs
-
     for k in range(1, 65):
         X = _repaired(problem, lhs_designs(space, n * k, seed))
         X = X[problem.admissible(X)]

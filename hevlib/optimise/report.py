@@ -6,9 +6,9 @@ import numpy as np
 import pandas as pd
 
 from hevlib.design import OBJECTIVES
+from hevlib.judging import HvSettings, spread
 from hevlib.optimise.algorithms import Front
 from hevlib.params import AlgoParams, BayesParams
-from hevlib.pareto import HvSettings, spread
 
 
 def surrogate_error(pred: np.ndarray, sim: np.ndarray, span: np.ndarray | None = None) -> dict[str, dict]:

@@ -10,9 +10,9 @@ import pandas as pd
 import pyarrow as pa
 
 from hevlib.design import BOOL_RESPONSES, DESIGN_VARS, INTEGER_MASK, OBJECTIVES, RESPONSES
+from hevlib.indicators import nondominated_mask, to_minimisation
 from hevlib.optimise.algorithms import Front
 from hevlib.optimise.problem import HevProblem
-from hevlib.pareto import nondominated_mask, to_minimisation
 
 
 def resimulate(X: np.ndarray, simulate: Callable[[np.ndarray], pd.DataFrame]) -> pd.DataFrame:

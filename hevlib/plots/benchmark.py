@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from hevlib.benchmark.runs import KIND
 from hevlib.plots import plt
 
 _STYLE = {
@@ -16,8 +17,6 @@ _STYLE = {
 def anytime_figure(scores, table: dict, ceiling: str) -> plt.Figure:
     """Median (line) and quartiles (band) of each source's archive hypervolume at each budget; the
     oracle's whole-run archive as a horizontal ceiling with its quartiles."""
-    from hevlib.benchmark.runs import KIND
-
     fig, ax = plt.subplots(figsize=(9.0, 5.5))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for i, (source, per) in enumerate(sorted(table.items())):

@@ -6,8 +6,7 @@ import numpy as np
 import pandas as pd
 
 from hevlib.design import OBJECTIVE_UNITS, OBJECTIVES
-from hevlib.indicators import Normalisation
-from hevlib.pareto import to_minimisation
+from hevlib.indicators import Normalisation, to_minimisation
 from hevlib.plots import plt
 
 

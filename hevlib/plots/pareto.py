@@ -8,8 +8,9 @@ import numpy as np
 import pandas as pd
 
 from hevlib.design import OBJECTIVE_UNITS, OBJECTIVES
-from hevlib.pareto import SIM, algo_names
+from hevlib.pareto import algo_names
 from hevlib.plots import plt
+from hevlib.screen import SIM
 
 #: Objective pairs (x, y) of the trade-off figure, as in the study.
 TRADEOFF_PAIRS: tuple[tuple[str, str], ...] = (

@@ -59,6 +59,7 @@ from typing import Self
 import numpy as np
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES, DesignSpace
+from hevlib.determinism import torch as pinned_torch  # torch itself is imported on the first call
 from hevlib.io import save_with
 from hevlib.surrogates.base import (
     NotFittedError,
@@ -279,10 +280,7 @@ class BayesRegMLP:
     # -------------------------------------------------------------------------------- persistence
     def save(self, path: str | Path) -> None:
         """Write the model (weights, scalings, hyperparameters, evidence state, training curve)."""
-        from hevlib.determinism import torch as pinned_torch
-
         torch = pinned_torch()
-
         self._check_fitted()
 
         def t(a) -> torch.Tensor:
@@ -311,10 +309,7 @@ class BayesRegMLP:
 
     @classmethod
     def load(cls, path: str | Path) -> BayesRegMLP:
-        from hevlib.determinism import torch as pinned_torch
-
         torch = pinned_torch()
-
         path = Path(path)
         if not path.exists():
             raise FileNotFoundError(f"{path}: no such BNN model; run `hev surrogates` first")

@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 from hevlib.design import OBJECTIVES, DesignSpace
+from hevlib.screen import speed_dev_max as speed_dev_rule
 from hevlib.surrogates.fitting import fit_surrogate
 from hevlib.surrogates.metrics import objective_metrics, train_test_split
 
@@ -96,9 +97,7 @@ def _numeric_evidence(bnn) -> dict:
 
 def followers(Y: np.ndarray, speed_dev_max: float) -> np.ndarray:
     """(n,) bool: designs whose simulated speed deviation (column of ``Y``, (n, 11)) passes screening."""
-    from hevlib.screen import speed_dev_max as rule
-
-    return rule(speed_dev_max).mask({"speed_dev": np.asarray(Y, dtype=float)[:, I_SPEED_DEV]})
+    return speed_dev_rule(speed_dev_max).mask({"speed_dev": np.asarray(Y, dtype=float)[:, I_SPEED_DEV]})
 
 
 def fit_surrogates(

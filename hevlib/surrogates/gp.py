@@ -30,14 +30,9 @@ from typing import Self
 import numpy as np
 
 from hevlib.design import OBJECTIVES, SENSE, DesignSpace
+from hevlib.determinism import torch as _torch  # torch itself is imported on the first call
 from hevlib.surrogates.base import NotFittedError, check_designs, check_targets, clip_objectives
 from hevlib.surrogates.transform import LogTargets
-
-
-def _torch():
-    from hevlib.determinism import torch
-
-    return torch()
 
 
 def _fitted_gp(space: DesignSpace, X: np.ndarray, T: np.ndarray, noise: float | None = None):
