@@ -129,6 +129,7 @@ def post(data: Path, n: int | None, out_dir: Path) -> dict:
     from hevlib.io import write_json, write_parquet
     from hevlib.judging import HvSettings, screened_normalisation, simulated_as_front
     from hevlib.pareto import select_designs, table_schema
+    from hevlib.results import to_json
     from hevlib.tables import scan
 
     params = _params()
@@ -151,9 +152,9 @@ def post(data: Path, n: int | None, out_dir: Path) -> dict:
     with PeakRss() as m:
         write_parquet(out_dir / "merged.parquet", res.merged, table_schema(res.merged))
         write_parquet(out_dir / "selected.parquet", res.selected, table_schema(res.selected))
-        write_json(out_dir / "pareto.json", res.summary)
+        write_json(out_dir / "pareto.json", to_json(res.summary))
     steps["write"] = m.entry()
-    c = res.summary["counts"]
+    c = res.summary.counts
     return {
         "n_designs": n_rows,
         "counts": c,

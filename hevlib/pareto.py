@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import polars as pl
@@ -49,6 +49,7 @@ from hevlib.indicators import (
 )
 from hevlib.judging import HvSettings, objective_matrix, spread
 from hevlib.recommend import shortlist
+from hevlib.results import Judging, ParetoCounts, ParetoSummary, Selection, SourceSummary
 from hevlib.screen import SIM, apply_screening, screening_rules
 from hevlib.tables import Table, columns, lazy, n_rows
 
@@ -123,6 +124,11 @@ def algo_names(algo: str) -> list[str]:
 
 # --------------------------------------------------------------------------- the sources compared
 JUDGED_OBJECT = "archive"
+#: What the one normalisation is built from (``hevlib.judging.judged_normalisation``).
+JUDGED_SCALE = (
+    "the judged scale: screen-passing designs of hev judge's reference set (a large Latin hypercube of admissible "
+    "designs, simulated; no source produced it)"
+)
 
 
 def source_summary(
@@ -133,12 +139,12 @@ def source_summary(
     screen,
     optimise,
     norm: Normalisation,
-) -> tuple[dict, dict[str, float]]:
-    """``reports/pareto.json`` additions and the hypervolumes' wall times (s; machine-dependent, for the
-    logs). Every source is judged on the same object (``judged_object: archive``): every design it
+) -> tuple[Judging, dict[str, float]]:
+    """``reports/pareto.json``'s judging of every source and the hypervolumes' wall times (s; machine-dependent,
+    for the logs). Every source is judged on the same object (``judged_object: archive``): every design it
     simulated (its archive, ``data/pareto/<source>_archive.parquet``: the DOE's included for the
     surrogate-assisted ones) that passes the screen, not thinned, with the one normalisation ``norm``
-    (screen-passing DOE and held-out designs: data no source produced) and reference point. Per source:
+    (the judged scale's reference set, ``hev judge``: data no source produced) and reference point. Per source:
     that hypervolume (exact or Monte Carlo, :func:`hevlib.indicators.hypervolume`, with its points,
     samples and error), its ratio to the oracle's archive, the hypervolume of the front shown to users
     (the hypervolume-greedy subset of the archive, the same size for every source), simulations used,
@@ -157,37 +163,37 @@ def source_summary(
         n_a = n_by_algo[a]
         h, n_counted = judged[a]
         f, _ = shown[a]
-        sources[a] = {
-            "judged_object": JUDGED_OBJECT,
-            "hypervolume": h.value,
-            "hypervolume_se": h.se,
-            "hypervolume_method": h.method,
-            "hypervolume_points": h.n_points,
-            "hypervolume_designs": n_counted,
-            "hv_ratio_to_oracle": h.value / oracle_hv if oracle_hv else None,
-            "front_hypervolume": f.value,
-            "front_hypervolume_se": f.se,
-            "front_hv_ratio_to_oracle": f.value / oracle_front if oracle_front else None,
-            "n_simulations": reports[a].get("n_simulations"),
-            "archive_size": n_rows(archives[a]),
-            "front_size": n_rows(t),
-            "picked": n_a,
-            "picked_share": n_a / n_picked,
-            "spread": spread(t, norm),
-            "seed_spread": f"reports/benchmark/summary.json: sources.{a}",
-        }
+        sources[a] = SourceSummary(
+            judged_object=JUDGED_OBJECT,
+            hypervolume=h.value,
+            hypervolume_se=h.se,
+            hypervolume_method=h.method,
+            hypervolume_points=h.n_points,
+            hypervolume_designs=n_counted,
+            hv_ratio_to_oracle=h.value / oracle_hv if oracle_hv else None,
+            front_hypervolume=f.value,
+            front_hypervolume_se=f.se,
+            front_hv_ratio_to_oracle=f.value / oracle_front if oracle_front else None,
+            n_simulations=reports[a].get("n_simulations"),
+            archive_size=n_rows(archives[a]),
+            front_size=n_rows(t),
+            picked=n_a,
+            picked_share=n_a / n_picked,
+            spread=spread(t, norm),
+            seed_spread=f"reports/benchmark/summary.json: sources.{a}",
+        )
     hv_report = {**settings.describe(), "choice": {a: h.describe() for a, (h, _) in judged.items()}}
     hv_report.pop("normalisation")
     wall = {a: h.wall_s for a, (h, _) in judged.items()}
-    return {
-        "judged_object": JUDGED_OBJECT,
-        "judged_object_means": "every design the source simulated (the DOE's included for the surrogate-assisted "
+    return Judging(
+        judged_object=JUDGED_OBJECT,
+        judged_object_means="every design the source simulated (the DOE's included for the surrogate-assisted "
         "sources) that passes the screen, not thinned; the oracle is the best-known front at its budget, not the truth",
-        "hv_reference": settings.reference,
-        "normalisation": {**normalisation_dict(norm), "built_from": "screen-passing DOE and held-out designs"},
-        "hypervolume": hv_report,
-        "sources": sources,
-    }, wall
+        hv_reference=settings.reference,
+        normalisation={**normalisation_dict(norm), "built_from": JUDGED_SCALE},
+        hypervolume=hv_report,
+        sources=sources,
+    ), wall
 
 
 # ------------------------------------------------------------------------------ rank and pick
@@ -221,7 +227,7 @@ class ParetoResult:
 
     merged: pl.DataFrame
     selected: pl.DataFrame
-    summary: dict = field(default_factory=dict)
+    summary: ParetoSummary
 
 
 def _count(rows: Table, names: Sequence[str]) -> dict[str, int]:
@@ -321,33 +327,33 @@ def select_designs(
         "picked": merged.filter(pl.col("picked")),
     }
     counts = {what: _count(rows, names) for what, rows in subsets.items()}
-    summary = {
-        "counts": {
-            "input": n_rows_in,
-            "duplicates_removed": n_rows_in - len(merged),
-            "merged": len(merged),
-            "non_finite": int((~finite).sum()),
-            "nondominated": int(nondom.sum()),
-            "feasible": int(feasible.sum()),
-            "kept": int(kept.sum()),
-            "picked": int(picked.sum()),
-        },
-        "screen": rule_report,
-        "by_algo": {a: {"input": n_in[a], **{what: counts[what][a] for what in subsets}} for a in names},
-        "shared_designs": int((merged["n_sources"] > 1).sum()),
-        "kept_share": {a: c / max(int(kept.sum()), 1) for a, c in counts["kept"].items()},
-        "picked_share": {a: c / max(int(picked.sum()), 1) for a, c in counts["picked"].items()},
-        "selection": {
-            "rank_rule": "euclidean distance to the ideal point, objectives min-max normalised over the feasible set",
-            "n_keep": int(screen.n_keep),
-            "n_pick": int(screen.n_pick),
-            "pick": screen.pick,
-            "seed": int(screen.seed) if screen.pick == "random" else None,
-            "pick_rule": PICK_RULES[screen.pick],
-            "roles": {name: str(merged["design_id"][int(idx_kept[i])]) for name, i in roles.items()},
-        },
-        "notes": notes,
-    }
+    summary = ParetoSummary(
+        counts=ParetoCounts(
+            input=n_rows_in,
+            duplicates_removed=n_rows_in - len(merged),
+            merged=len(merged),
+            non_finite=int((~finite).sum()),
+            nondominated=int(nondom.sum()),
+            feasible=int(feasible.sum()),
+            kept=int(kept.sum()),
+            picked=int(picked.sum()),
+        ),
+        screen=rule_report,
+        by_algo={a: {"input": n_in[a], **{what: counts[what][a] for what in subsets}} for a in names},
+        shared_designs=int((merged["n_sources"] > 1).sum()),
+        kept_share={a: c / max(int(kept.sum()), 1) for a, c in counts["kept"].items()},
+        picked_share={a: c / max(int(picked.sum()), 1) for a, c in counts["picked"].items()},
+        selection=Selection(
+            rank_rule="euclidean distance to the ideal point, objectives min-max normalised over the feasible set",
+            n_keep=int(screen.n_keep),
+            n_pick=int(screen.n_pick),
+            pick=screen.pick,
+            seed=int(screen.seed) if screen.pick == "random" else None,
+            pick_rule=PICK_RULES[screen.pick],
+            roles={name: str(merged["design_id"][int(idx_kept[i])]) for name, i in roles.items()},
+        ),
+        notes=notes,
+    )
     clock("summary")
     return ParetoResult(merged=merged, selected=selected, summary=summary)
 

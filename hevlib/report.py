@@ -13,7 +13,7 @@ import pandas as pd
 
 from hevlib.design import DESIGN_VARS, UNITS
 from hevlib.recommend import FAMILY_SHARE
-from hevlib.results import Pick, Recommendation, ValidationSummary
+from hevlib.results import ParetoSummary, Pick, Recommendation, ValidationSummary
 from hevlib.validation import ALL, BASELINE_ALGO, IMPROVEMENT_RESPONSES, SOC_POINTS
 
 #: The study's headline against the conventional car on FTP (SPEC section 1).
@@ -67,21 +67,21 @@ def _round(v):
     return None if v is None else round(float(v), 2) + 0.0  # + 0.0: no "-0"
 
 
-def _pareto_section(pareto: Mapping) -> list[str]:
-    c = pareto["counts"]
+def _pareto_section(pareto: ParetoSummary) -> list[str]:
+    c = pareto.counts
     out = ["## Merge, screen and select (sizing cycle, simulated objectives)", ""]
     out.append(
         markdown_table(
             ["step", "designs"],
             [
-                ["designs on the fronts", c["input"]],
-                ["identical designs merged", c["duplicates_removed"]],
-                ["distinct designs", c["merged"]],
-                ["non-finite objectives (dropped)", c["non_finite"]],
-                ["non-dominated", c["nondominated"]],
-                ["feasible after screening", c["feasible"]],
-                ["kept (best by rank)", c["kept"]],
-                ["picked for validation", c["picked"]],
+                ["designs on the fronts", c.input],
+                ["identical designs merged", c.duplicates_removed],
+                ["distinct designs", c.merged],
+                ["non-finite objectives (dropped)", c.non_finite],
+                ["non-dominated", c.nondominated],
+                ["feasible after screening", c.feasible],
+                ["kept (best by rank)", c.kept],
+                ["picked for validation", c.picked],
             ],
         )
     )
@@ -96,11 +96,11 @@ def _pareto_section(pareto: Mapping) -> list[str]:
             ["rule", "on", "criterion", "fails alone", "removed in sequence"],
             [
                 [name, r["enabled"], r["rule"], r["fails_alone"], r["removed_in_sequence"]]
-                for name, r in pareto["screen"].items()
+                for name, r in pareto.screen.items()
             ],
         )
     )
-    algos = list(pareto["by_algo"])
+    algos = list(pareto.by_algo)
     out += [
         "",
         markdown_table(
@@ -113,24 +113,24 @@ def _pareto_section(pareto: Mapping) -> list[str]:
                     b["feasible"],
                     b["kept"],
                     b["picked"],
-                    round(pareto["kept_share"][a], 3),
-                    round(pareto["picked_share"][a], 3),
+                    round(pareto.kept_share[a], 3),
+                    round(pareto.picked_share[a], 3),
                 ]
-                for a, b in pareto["by_algo"].items()
+                for a, b in pareto.by_algo.items()
             ],
         )
         if algos
         else "",
     ]
-    sources = pareto.get("sources", {})
+    sources = pareto.sources or {}
     if sources:
         out += [
             "",
             "Sources, each judged on the same object: its archive -- every design it simulated (the DOE "
             "included for the surrogate-assisted ones) that passes the screen, not thinned -- by the "
-            "hypervolume of the simulated objectives, normalised by the ideal and nadir of the screen-passing "
-            f"DOE and held-out designs (which no source produced), reference {pareto['hv_reference']:g} "
-            f"(exact up to {pareto.get('hypervolume', {}).get('exact_max_points', 'n/a')} non-dominated "
+            "hypervolume of the simulated objectives, normalised by the ideal and nadir of the judged scale (the "
+            "screen-passing designs of `hev judge`'s reference set, which no source produced), reference "
+            f"{pareto.hv_reference:g} (exact up to {pareto.hypervolume.get('exact_max_points', 'n/a')} non-dominated "
             "designs, beyond that Monte Carlo with its standard error); the ratio is to the oracle's archive, "
             "the best-known front at its budget (not the truth). One seed each: whether a source beats another "
             "is decided by the many-seed, equal-budget benchmark (`reports/benchmark/summary.json`), not here. "
@@ -152,15 +152,15 @@ def _pareto_section(pareto: Mapping) -> list[str]:
                 [
                     [
                         a,
-                        v["n_simulations"],
-                        v["hypervolume"],
-                        v.get("hypervolume_se"),
-                        v.get("hypervolume_method", "n/a"),
-                        v["hv_ratio_to_oracle"],
-                        v["front_size"],
-                        v.get("front_hypervolume"),
-                        v["picked"],
-                        round(v["picked_share"], 3),
+                        v.n_simulations,
+                        v.hypervolume,
+                        v.hypervolume_se,
+                        v.hypervolume_method,
+                        v.hv_ratio_to_oracle,
+                        v.front_size,
+                        v.front_hypervolume,
+                        v.picked,
+                        round(v.picked_share, 3),
                     ]
                     for a, v in sources.items()
                 ],
@@ -169,16 +169,16 @@ def _pareto_section(pareto: Mapping) -> list[str]:
             "![Archive hypervolume ratio to the oracle's archive against simulations, per infill round]"
             "(plots/pareto/infill.png)",
         ]
-    sel = pareto["selection"]
+    sel = pareto.selection
     out += [
         "",
-        f"Rank: {sel['rank_rule']}. Pick: `{sel['pick']}`"
-        + (f" (seed {sel['seed']})" if sel.get("seed") is not None else " (farthest-point sampling)")
-        + f", n_keep={sel['n_keep']}, n_pick={sel['n_pick']}. "
-        f"{pareto.get('shared_designs', 0)} distinct design(s) were found by more than one algorithm "
+        f"Rank: {sel.rank_rule}. Pick: `{sel.pick}`"
+        + (f" (seed {sel.seed})" if sel.seed is not None else " (farthest-point sampling)")
+        + f", n_keep={sel.n_keep}, n_pick={sel.n_pick}. "
+        f"{pareto.shared_designs} distinct design(s) were found by more than one algorithm "
         "(they count for each, so shares can add up to more than 1).",
     ]
-    for note in pareto.get("notes", []):
+    for note in pareto.notes:
         out.append(f"\n> Note: {note}.")
     return out
 
@@ -393,7 +393,7 @@ def _seed_spread_lines(validation: ValidationSummary, robustness: Mapping | None
     return out
 
 
-def _build_this(validation: ValidationSummary, pareto: Mapping, robustness: Mapping | None = None) -> list[str]:
+def _build_this(validation: ValidationSummary, pareto: ParetoSummary, robustness: Mapping | None = None) -> list[str]:
     rec = validation.recommendation
     if not rec:
         return []
@@ -498,7 +498,7 @@ def _build_this(validation: ValidationSummary, pareto: Mapping, robustness: Mapp
         f"Highway rule (`screen.min_v_max_kmh`): {'on' if hw.enabled else 'off'} at {hw.min_v_max_kmh:g} km/h; "
         f"{len(hw.picks_below)} of the picks fall short of it in the flat-road top-speed test."
     )
-    ab = pareto.get("active_bounds")
+    ab = pareto.active_bounds
     if ab:
         out += ["", f"Active bounds of the design box (kept designs): {ab['advice']}."]
     return out + [""]
@@ -551,7 +551,7 @@ def _pct(v, word: str) -> str:
 
 
 def build_summary(
-    pareto: Mapping,
+    pareto: ParetoSummary,
     validation: ValidationSummary,
     table: pd.DataFrame,
     selected: pd.DataFrame,
@@ -584,7 +584,7 @@ def build_summary(
         "",
     ]
     if not validation.counts.picked:
-        worst = max(pareto.get("screen", {}).items(), key=lambda kv: kv[1]["removed_in_sequence"], default=None)
+        worst = max(pareto.screen.items(), key=lambda kv: kv[1]["removed_in_sequence"], default=None)
         out += [
             "> **No design passed the screening, so nothing was validated and the improvement tables are "
             "empty.**"

@@ -1,10 +1,11 @@
-"""Typed results of the validation step and the recommendation, and their one JSON form.
+"""Typed results of the pareto step, the validation step and the recommendation, and their one JSON form.
 
-:mod:`hevlib.validation` builds them, ``hev validate`` writes them (``reports/validation.json``) and
-:mod:`hevlib.report` reads their attributes. Tables whose keys are data (an algorithm, a cycle, a response)
-stay mappings; what has a fixed shape is a frozen dataclass. :func:`to_json` is the one serialiser: fields in
-declaration order (the order of the JSON keys), a field marked :data:`OMIT_NONE` left out while it is ``None``.
-:func:`from_json` reads the form back into the types, so a report can be rebuilt from the file.
+:mod:`hevlib.pareto` and :mod:`hevlib.validation` build them, ``hev pareto`` and ``hev validate`` write them
+(``reports/pareto.json``, ``reports/validation.json``) and :mod:`hevlib.report` reads their attributes. Tables
+whose keys are data (an algorithm, a cycle, a response) stay mappings; what has a fixed shape is a frozen
+dataclass. :func:`to_json` is the one serialiser: fields in declaration order (the order of the JSON keys), a
+field marked :data:`OMIT_NONE` left out while it is ``None``. :func:`from_json` reads the form back into the
+types, so a report can be rebuilt from the file.
 """
 
 from __future__ import annotations
@@ -62,6 +63,97 @@ def _read(tp: Any, data: Any) -> Any:
         (item,) = typing.get_args(tp)
         return [_read(item, v) for v in data]
     return data
+
+
+@dataclass(frozen=True)
+class ParetoCounts:
+    """Designs at each step of the pareto stage."""
+
+    input: int
+    duplicates_removed: int
+    merged: int
+    non_finite: int
+    nondominated: int
+    feasible: int
+    kept: int
+    picked: int
+
+
+@dataclass(frozen=True)
+class Selection:
+    """How the kept designs were ranked and the validated ones picked, and the shortlist's roles."""
+
+    rank_rule: str
+    n_keep: int
+    n_pick: int
+    pick: str
+    seed: int | None
+    pick_rule: str
+    #: role (knee, best of a group) -> the design holding it
+    roles: dict[str, str]
+
+
+@dataclass(frozen=True)
+class SourceSummary:
+    """One source judged on the common object (its screened archive) and scale, with its front and picks."""
+
+    judged_object: str
+    hypervolume: float
+    hypervolume_se: float
+    hypervolume_method: str
+    hypervolume_points: int
+    hypervolume_designs: int
+    hv_ratio_to_oracle: Figure
+    front_hypervolume: float
+    front_hypervolume_se: float
+    front_hv_ratio_to_oracle: Figure
+    n_simulations: int | None
+    archive_size: int
+    front_size: int
+    picked: int
+    picked_share: float
+    spread: dict[str, float]
+    seed_spread: str
+
+
+@dataclass(frozen=True)
+class Judging:
+    """How every source was judged: the object, the one normalisation and hypervolume, and each source."""
+
+    judged_object: str
+    judged_object_means: str
+    hv_reference: float
+    normalisation: dict[str, Any]
+    hypervolume: dict[str, Any]
+    sources: dict[str, SourceSummary]
+
+
+@dataclass(frozen=True)
+class ParetoSummary:
+    """``reports/pareto.json``: merge, screen, rank and pick counts (overall, per screen rule, per source), the
+    selection, notes; with the stage's :class:`Judging` of every source and the design box's active bounds."""
+
+    counts: ParetoCounts
+    #: screen rule -> {enabled, rule, fails_alone, removed_in_sequence}
+    screen: dict[str, dict[str, Any]]
+    by_algo: dict[str, dict[str, int]]
+    shared_designs: int
+    kept_share: dict[str, float]
+    picked_share: dict[str, float]
+    selection: Selection
+    notes: list[str]
+    judged_object: str | None = field(default=None, metadata=OMIT_NONE)
+    judged_object_means: str | None = field(default=None, metadata=OMIT_NONE)
+    hv_reference: float | None = field(default=None, metadata=OMIT_NONE)
+    normalisation: dict[str, Any] | None = field(default=None, metadata=OMIT_NONE)
+    hypervolume: dict[str, Any] | None = field(default=None, metadata=OMIT_NONE)
+    sources: dict[str, SourceSummary] | None = field(default=None, metadata=OMIT_NONE)
+    active_bounds: dict[str, Any] | None = field(default=None, metadata=OMIT_NONE)
+
+    def judged(self, judging: Judging, active_bounds: dict[str, Any]) -> ParetoSummary:
+        """The same summary with the stage's judging of every source and the active bounds of the kept designs."""
+        fields = {f.name: getattr(judging, f.name) for f in dataclasses.fields(judging)}
+        return dataclasses.replace(self, **fields, active_bounds=active_bounds)
 
 
 @dataclass(frozen=True)
@@ -179,8 +271,13 @@ __all__ = [
     "Counts",
     "Equivalent",
     "HighwayRule",
+    "Judging",
     "Noise",
+    "ParetoCounts",
+    "ParetoSummary",
     "Pick",
+    "Selection",
+    "SourceSummary",
     "Recommendation",
     "ValidationSummary",
     "from_json",

@@ -13,6 +13,7 @@ from hevlib.pareto import select_designs, source_summary, table_schema
 from hevlib.plots import save_figure
 from hevlib.plots.pareto import distributions_figure, infill_figure, tradeoff_data, tradeoffs_figure
 from hevlib.recommend import active_bounds
+from hevlib.results import to_json
 from hevlib.tables import scan
 from stages.cli import app
 from stages.common import PARAMS_OPTION, REFERENCE, params_from, stage
@@ -43,10 +44,9 @@ def pareto(params_path: str = PARAMS_OPTION) -> None:
     archives = {a: scan(FRONTS_DIR / f"{a}_archive.parquet").collect() for a in algos}
     norm = judged_normalisation(read_table(REFERENCE), params.screen)
     result = select_designs(fronts, params.screen)
-    additions, hv_wall_s = source_summary(fronts, archives, reports, result.merged, params.screen, o, norm)
-    result.summary.update(additions)
+    judging, hv_wall_s = source_summary(fronts, archives, reports, result.merged, params.screen, o, norm)
     kept = result.merged.filter(pl.col("kept")).to_pandas()  # matplotlib's edge
-    result.summary["active_bounds"] = active_bounds(kept, params.design_space)
+    summary = result.summary.judged(judging, active_bounds(kept, params.design_space))
     figures = {
         "tradeoffs.png": tradeoffs_figure(kept, algos),
         "distributions.png": distributions_figure(kept, algos),
@@ -56,18 +56,18 @@ def pareto(params_path: str = PARAMS_OPTION) -> None:
 
     write_parquet(MERGED, result.merged, table_schema(result.merged))
     write_parquet(SELECTED, result.selected, table_schema(result.selected))
-    write_json(METRICS, result.summary)
+    write_json(METRICS, to_json(summary))
     write_json(LOGS_DIR / "pareto.json", {"hypervolume_wall_s": hv_wall_s})  # wall times: not a metric
     for name, fig in figures.items():
         save_figure(fig, PLOTS_DIR / name)
     for a, text in plot_data.items():
         write_text(PLOT_DATA_DIR / f"{a}.csv", text)
-    c = result.summary["counts"]
+    c = summary.counts
     print(
-        f"pareto: {c['merged']} designs, {c['nondominated']} non-dominated, {c['feasible']} feasible, "
-        f"{c['kept']} kept, {c['picked']} picked ({params.screen.pick}) -> wrote {MERGED}, {SELECTED}, {METRICS}"
+        f"pareto: {c.merged} designs, {c.nondominated} non-dominated, {c.feasible} feasible, "
+        f"{c.kept} kept, {c.picked} picked ({params.screen.pick}) -> wrote {MERGED}, {SELECTED}, {METRICS}"
     )
-    for flag in result.summary["active_bounds"]["flagged"]:
+    for flag in summary.active_bounds["flagged"]:
         print(
             f"pareto: {flag['variable']} at its {flag['side']} bound {flag['bound']:g} in "
             f"{100 * flag['kept_share']:.0f} % of the kept designs: widen design_space.{flag['variable']}"

@@ -12,7 +12,7 @@ from hevlib.io import read_table, write_json, write_parquet, write_text
 from hevlib.plots import save_figure
 from hevlib.plots.validation import catalyst_figure, improvement_figure, traces_figure
 from hevlib.report import build_summary
-from hevlib.results import to_json
+from hevlib.results import ParetoSummary, from_json, to_json
 from hevlib.robustness import settings_fingerprint
 from hevlib.validation import (
     answer,
@@ -67,8 +67,8 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     selected = read_table(SELECTED)
     if not PARETO_JSON.exists():
         raise FileNotFoundError(f"{PARETO_JSON}: no such file; run `hev pareto` first")
-    pareto = json.loads(PARETO_JSON.read_text())
-    algos = list(pareto.get("by_algo", {}))  # the algorithms the pareto stage merged, in its order
+    pareto = from_json(ParetoSummary, json.loads(PARETO_JSON.read_text()))
+    algos = list(pareto.by_algo)  # the algorithms the pareto stage merged, in its order
     prius_x = prius_design(params.baseline.prius)
 
     sim = simulator(params)

@@ -291,9 +291,9 @@ def test_select_designs_keeps_the_best_ranked_and_picks_among_them():
     fronts = _fronts()
     fronts["moead"].iloc[0, :] = fronts["nsga3"].iloc[0, :].to_numpy()  # one shared design
     res = select_designs(fronts, screen)
-    m, c = res.merged.to_pandas(), res.summary["counts"]
-    assert c["input"] == 270 and c["merged"] == 269 and c["duplicates_removed"] == 1
-    assert c["kept"] == 20 and c["picked"] == 6
+    m, c = res.merged.to_pandas(), res.summary.counts
+    assert c.input == 270 and c.merged == 269 and c.duplicates_removed == 1
+    assert c.kept == 20 and c.picked == 6
     assert (
         m["feasible"]
         == (
@@ -314,8 +314,8 @@ def test_select_designs_keeps_the_best_ranked_and_picks_among_them():
     worst_kept = feas.loc[feas["kept"], "ideal_distance"].max()
     assert (feas.loc[~feas["kept"], "ideal_distance"] >= worst_kept).all()
     # shares and per-algorithm counts are consistent
-    assert sum(b["kept"] for b in res.summary["by_algo"].values()) >= 20
-    share, by_algo = res.summary["kept_share"], res.summary["by_algo"]
+    assert sum(b["kept"] for b in res.summary.by_algo.values()) >= 20
+    share, by_algo = res.summary.kept_share, res.summary.by_algo
     np.testing.assert_allclose(share["nsga3"], by_algo["nsga3"]["kept"] / 20)
     # same seed -> same picks; another seed -> other picks
     again = select_designs(fronts, screen)
@@ -326,10 +326,10 @@ def test_select_designs_keeps_the_best_ranked_and_picks_among_them():
 
 def test_fewer_designs_than_n_keep_and_n_pick_are_all_kept_and_noted():
     res = select_designs({"nsga3": synthetic_front(30, 4)}, ScreenParams(n_keep=500, n_pick=400, speed_dev_max=1.0))
-    c = res.summary["counts"]
-    assert c["kept"] == c["feasible"] == c["picked"] > 0
-    assert any("fewer than n_keep" in n for n in res.summary["notes"])
-    assert any("fewer than n_pick" in n for n in res.summary["notes"])
+    c = res.summary.counts
+    assert c.kept == c.feasible == c.picked > 0
+    assert any("fewer than n_keep" in n for n in res.summary.notes)
+    assert any("fewer than n_pick" in n for n in res.summary.notes)
 
 
 def test_non_finite_objectives_are_dropped_before_dominance():
@@ -338,7 +338,7 @@ def test_non_finite_objectives_are_dropped_before_dominance():
     res = select_designs({"moga": front}, ScreenParams(n_keep=5, n_pick=2, speed_dev_max=1.0))
     merged = res.merged.to_pandas()
     row = merged[merged["design_id"] == "moga-3"].iloc[0]
-    assert not row["finite"] and not row["nondominated"] and res.summary["counts"]["non_finite"] == 1
+    assert not row["finite"] and not row["nondominated"] and res.summary.counts.non_finite == 1
 
 
 def test_any_number_of_objectives():
@@ -348,8 +348,8 @@ def test_any_number_of_objectives():
     screen = ScreenParams(n_keep=10, n_pick=4, pick="diverse", gen_below_motor=False, buildable_gear_set=False)
     res = select_designs({"nsga3": front}, screen, objectives)
     F = front[["sim_a", "sim_b", "sim_c"]].to_numpy()
-    assert res.summary["counts"]["nondominated"] == brute_nondominated(F).sum()
-    assert res.summary["counts"]["picked"] == 4
+    assert res.summary.counts.nondominated == brute_nondominated(F).sum()
+    assert res.summary.counts.picked == 4
 
 
 def test_screen_params_reject_more_picks_than_kept(tmp_path):

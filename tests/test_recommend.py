@@ -113,7 +113,7 @@ def test_the_recommend_pick_is_a_deterministic_shortlist_seeded_by_the_knee_and_
     screen = ScreenParams(n_keep=30, n_pick=8, speed_dev_max=1.0, mass_max_kg=5000.0, pick="recommend")
     res = select_designs(fronts, screen)
     sel = res.selected.to_pandas()
-    roles = res.summary["selection"]["roles"]
+    roles = res.summary.selection.roles
     assert len(sel) == 8 and set(roles) == {"knee", "best_fuel", "best_emissions", "best_performance"}
     assert set(roles.values()) <= set(sel["design_id"])
     for role, design in roles.items():

@@ -255,7 +255,7 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
     write_parquet("data/pareto/selected.parquet", res.selected)
     write_parquet("data/pareto/merged.parquet", res.merged)
     Path("reports").mkdir()
-    Path("reports/pareto.json").write_text(json.dumps(res.summary))
+    Path("reports/pareto.json").write_text(json.dumps(to_json(res.summary)))
     out = runner.invoke(app, ["validate"])
     assert out.exit_code == 0, "".join(traceback.format_exception(*out.exc_info)) if out.exc_info else out.output
     table = pd.read_parquet("reports/validation.parquet")
@@ -311,7 +311,7 @@ def test_summary_says_so_when_nothing_passed_screening():
     s = summarise(table, ["nsga3"], ["ftp"], 70.0)
     assert s.improvement["nsga3"]["vs_prius"]["fc"] is None and s.best_design is None
     res = select_designs({"nsga3": synthetic_front(20, 1)}, ScreenParams(speed_dev_max=1e-6))
-    assert res.summary["counts"]["picked"] == 0
+    assert res.summary.counts.picked == 0
     text = build_summary(res.summary, s, table, res.selected.to_pandas(), {})
     assert "No design passed the screening" in text and "`speed_dev_max`" in text
 
