@@ -467,8 +467,8 @@ class DirectParams(_Strict):
 
 class BenchmarkParams(_Strict):
     """The equal-budget, many-seed benchmark of every source (benchmarks/surrogate/dvc.yaml; not in the
-    default pipeline). Every simulation counts, the DOE's included; the judged normalisation comes from the
-    DOE and held-out designs only and is never given to a search."""
+    default pipeline). Every simulation counts, the DOE's included; the judged normalisation is the judged
+    scale's (``hev judge``'s reference set, which no source produced) and is never given to a search."""
 
     sources: list[Literal[BENCHMARK_SOURCES]] = list(BENCHMARK_SOURCES)  # type: ignore[valid-type]
     seeds: Annotated[int, Field(ge=1, le=1000)] = 7  # runs per source (the oracle: oracle_seeds)
