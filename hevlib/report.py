@@ -193,21 +193,7 @@ def _designs_table(table: pd.DataFrame, selected: pd.DataFrame, cycle: str, fail
     rank = dict(zip(selected["design_id"].astype(str), selected["rank"], strict=True)) if "rank" in selected else {}
     order = list(rows[rows["algo"] != BASELINE_ALGO]["vehicle"]) + ["prius", "conventional"]
     rows = rows.set_index("vehicle").loc[[v for v in order if v in set(rows["vehicle"])]]
-    cols = [
-        "m_veh",
-        "fc_charge_balanced",
-        "fc",
-        "fc_soc_corrected",
-        "diff_soc",
-        "hc",
-        "co",
-        "nox",
-        "v_max",
-        "f_max",
-        "eta_drivetrain",
-        "t_0_100_s",
-        "cycle_met",
-    ]
+    cols = [*IMPROVEMENT_RESPONSES, "t_0_100_s", "cycle_met"]
     header = [
         "vehicle",
         "algo",
