@@ -18,7 +18,10 @@ from hevlib.sim.drive import (
     ON,
     R_MASS,
     R_N_BAT,
+    CarrierReach,
+    ConvCommand,
     KernelVehicle,
+    StepRoad,
     _limited_conv,
     _limited_split,
     chassis,
@@ -38,11 +41,12 @@ BIG_FORCE = 1e7
 
 
 @njit(cache=True)
-def _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G):
-    """Everything the power-split driveline can give at speed ``v`` on a flat road."""
+def _hybrid_state(v, p_dis, p_chg, ch, dl: split.SplitDriveline):
+    """(command, state): everything the power-split driveline can give at speed ``v`` on a flat road."""
     f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
-    lim = split.limits(v, d, E, M, G)
-    return f_cmd, split.dispatch(lim, f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0, d, E, M, G)
+    lim = split.limits(v, dl.d, dl.E, dl.M, dl.G)
+    cmd = split.SplitCommand(f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0)
+    return cmd, split.dispatch(lim, cmd, dl.d, dl.E, dl.M, dl.G)
 
 
 @njit(cache=True)
@@ -58,20 +62,23 @@ def _conv_gear(v, ratios, d, ch, E):
 
 
 @njit(cache=True)
-def _surplus(kind, v, p_dis, p_chg, ratios, d, cd, ch, E, M, G):
+def _surplus(kind, v, p_dis, p_chg, ratios, cd, ch, dl: split.SplitDriveline):
     """Force left over the flat-road load at steady speed ``v``, N."""
     if kind == 0:
-        f = _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G)[1].f_del
+        f = _hybrid_state(v, p_dis, p_chg, ch, dl)[1].f_del
     else:
-        f = _conv_gear(v, ratios, cd, ch, E)[2].f_del
+        f = _conv_gear(v, ratios, cd, ch, dl.E)[2].f_del
     return f - road_total(v, 0.0, 1.0, ch)
 
 
 @njit(cache=True)
-def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
-    """kind 0: power-split hybrid, 1: conventional. Returns (f_max, t_0_100_s, v_max_kmh)."""
+def _launch_and_top(kind, veh: KernelVehicle, i: int, dt, t_max):
+    """Design ``i`` of ``veh``; kind 0: power-split hybrid, 1: conventional. Returns (f_max, t_0_100_s,
+    v_max_kmh)."""
+    row, c, ratios, cd, E, M, G, B = veh.rows[i], veh.c, veh.ratios, veh.cd, veh.E, veh.M, veh.G, veh.B
     row, c, ratios, E, M, G, B = borrowed((row, c, ratios, E, M, G, B))  # not reference-counted (borrow.py)
     d = split_design(row, c)
+    dl = split.SplitDriveline(d, E, M, G)
     m = row[R_MASS]
     ch = chassis(
         m,
@@ -89,10 +96,9 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
     env = NO_ENVELOPE  # full-power force envelope, carried from step to step (see _limited_split)
     while t < t_max and v < v_lim:
         if kind == 0:
-            f_cmd, st = _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G)
-            _, _, v_avg, env = _limited_split(
-                v, v, v_lim, f_cmd, ON, p_dis, p_chg, 1.0, 0.0, 1.0, dt, st, env, 0.0, np.inf, 0.0, d, ch, E, M, G
-            )
+            cmd, st = _hybrid_state(v, p_dis, p_chg, ch, dl)
+            reach = CarrierReach(0.0, np.inf, 0.0)
+            _, _, v_avg, env = _limited_split(v, v, v_lim, cmd, StepRoad(0.0, 1.0, dt), st, env, reach, ch, dl)
         else:
             # the gear that gains most speed over the step (a gear running out of revs mid-step loses)
             f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
@@ -102,7 +108,18 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
                 st_c = conv.dispatch(v, f_cmd, ratios[g], not engaged, cd, E)
                 ch_g = chassis(m, conventional_equivalent_mass_kg(m, ratios[g], engaged, cd.s_eng, c), c)
                 v_avg = max(
-                    v_avg, _limited_conv(v, v, v_lim, f_cmd, ratios[g], not engaged, 0.0, 1.0, dt, st_c, cd, ch_g, E)[2]
+                    v_avg,
+                    _limited_conv(
+                        v,
+                        v,
+                        v_lim,
+                        ConvCommand(f_cmd, ratios[g], not engaged),
+                        StepRoad(0.0, 1.0, dt),
+                        st_c,
+                        ch_g,
+                        cd,
+                        E,
+                    )[2],
                 )
         v_next = min(max(2.0 * v_avg - v, 0.0), v_lim)
         a = (v_next - v) / dt
@@ -114,18 +131,18 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
             break
         v, t = v_next, t + dt
     # ---- top speed: the largest v <= v_lim with force >= road load (coarse scan down, then bisection)
-    if _surplus(kind, v_lim, p_dis, p_chg, ratios, d, cd, ch, E, M, G) >= 0.0:
+    if _surplus(kind, v_lim, p_dis, p_chg, ratios, cd, ch, dl) >= 0.0:
         return f_max, t100, v_lim * 3.6
     hi = v_lim
     lo = hi
     while lo > 0.0:
         lo = max(lo - 5.0, 0.0)
-        if _surplus(kind, lo, p_dis, p_chg, ratios, d, cd, ch, E, M, G) >= 0.0:
+        if _surplus(kind, lo, p_dis, p_chg, ratios, cd, ch, dl) >= 0.0:
             break
         hi = lo
     while hi - lo > 1e-3:
         mid = 0.5 * (lo + hi)
-        if _surplus(kind, mid, p_dis, p_chg, ratios, d, cd, ch, E, M, G) >= 0.0:
+        if _surplus(kind, mid, p_dis, p_chg, ratios, cd, ch, dl) >= 0.0:
             lo = mid
         else:
             hi = mid
@@ -138,7 +155,5 @@ def performance_batch(kind: int, veh: KernelVehicle, dt: float, t_max: float, ou
     ``veh`` (kind 0: power-split hybrid, 1: conventional), launched at ``dt`` for at most ``t_max`` seconds.
     Releases the GIL (:func:`hevlib.sim.simulator.in_parallel`)."""
     for i in range(start, stop):
-        f_max, t100, v_max = _launch_and_top(
-            kind, veh.rows[i], veh.c, veh.ratios, veh.cd, veh.E, veh.M, veh.G, veh.B, dt, t_max
-        )
+        f_max, t100, v_max = _launch_and_top(kind, veh, i, dt, t_max)
         out[i, 0], out[i, 1], out[i, 2] = f_max, t100, v_max
