@@ -54,3 +54,12 @@ def test_layout_names_define_the_columns():
         cols = {k: v for k, v in vars(L).items() if k.startswith(prefix) and isinstance(v, int)}
         assert len(names) == n == len(set(names)) == len(cols)
         assert sorted(cols.values()) == list(range(n)), prefix
+
+
+def test_each_vehicle_record_holds_only_what_its_kernels_read(sim):
+    from hevlib.sim.drive import ConventionalRec, HybridRec
+
+    assert {"ratios", "shift", "cd"}.isdisjoint(HybridRec._fields)  # no gearbox or shift logic
+    assert {"th", "pc", "M", "G", "B"}.isdisjoint(ConventionalRec._fields)  # no controller, machines or battery
+    assert type(sim.vehicle(None, "conventional").kernel) is ConventionalRec
+    assert type(sim.vehicle(None, "prius").kernel) is HybridRec is type(sim.vehicle(sim.space.lower[None, :]).kernel)

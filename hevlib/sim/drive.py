@@ -92,12 +92,9 @@ class DriveConfig(NamedTuple):
     w_fire: float  # firing speed: fuel flows from here up, rad/s
 
 
-class KernelVehicle(NamedTuple):
-    """One batch of vehicles as every kernel reads it (:meth:`hevlib.sim.vehicles.Vehicle.from_design`): the
-    argument list of :func:`drive_hybrid`, :func:`drive_conventional` and the performance tests, written once.
-
-    One type for both drivelines (the conventional car carries the library's machines, pack and controller
-    unread; the hybrid the gearbox), so each kernel compiles one signature."""
+class HybridRec(NamedTuple):
+    """A batch of power-split hybrids as :func:`drive_hybrid` and the performance tests read them
+    (:meth:`hevlib.sim.vehicles.Vehicle.from_design`): what those kernels read, nothing else."""
 
     rows: np.ndarray  # (n, N_R) per-design rows, R_* columns
     c: DriveConfig
@@ -107,7 +104,17 @@ class KernelVehicle(NamedTuple):
     M: MachineArrays
     G: MachineArrays
     B: BatteryArrays
-    ratios: np.ndarray  # conventional gearbox: overall ratio of each gear ...
+    X: th_.ThermalConfig
+
+
+class ConventionalRec(NamedTuple):
+    """A batch of conventional cars as :func:`drive_conventional` and the performance tests read them: no
+    battery, machines or controller (the rows' R_S_MOT .. R_N_S columns are unread)."""
+
+    rows: np.ndarray  # (n, N_R) per-design rows: R_MASS, R_SOC0 (the engine's scale is cd.s_eng)
+    c: DriveConfig
+    E: EngineArrays
+    ratios: np.ndarray  # gearbox: overall ratio of each gear ...
     shift: conv.ShiftLogic  # ... and its shift logic
     cd: conv.ConvDesign
     X: th_.ThermalConfig
@@ -491,7 +498,7 @@ def _limited_conv(v0, v_req, v_cap, cmd: ConvCommand, road: StepRoad, st, ch, d,
 
 
 @njit(cache=True)
-def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
+def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
     # everything below reads the caller's arrays through views that are not reference-counted (borrow.py)
     veh, cyc, t_init, o, tr, scratch = borrowed((veh, cyc, t_init, o, tr, scratch))
     row, c, th, pc, E, M, G, B, X = veh.rows[i], veh.c, veh.th, veh.pc, veh.E, veh.M, veh.G, veh.B, veh.X
@@ -701,7 +708,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
 
 
 @njit(cache=True, nogil=True)
-def drive_hybrid(veh: KernelVehicle, cyc: KernelCycle, t_init, out, traces, rec_index, start: int, stop: int):
+def drive_hybrid(veh: HybridRec, cyc: KernelCycle, t_init, out, traces, rec_index, start: int, stop: int):
     """Drive designs ``start .. stop - 1`` of ``veh`` (its rows) over ``cyc`` from the thermal start ``t_init``;
     fill their rows of ``out`` (``O_*`` columns) and, where ``rec_index`` is >= 0, that trace of ``traces``.
     Releases the GIL: :func:`hevlib.sim.simulator.in_parallel` runs chunks of a batch on threads."""
@@ -712,7 +719,7 @@ def drive_hybrid(veh: KernelVehicle, cyc: KernelCycle, t_init, out, traces, rec_
 
 
 @njit(cache=True)
-def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
+def _conventional_one(veh: ConventionalRec, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
     # the caller's arrays through views that are not reference-counted (borrow.py)
     veh, cyc, t_init, o, tr, scratch = borrowed((veh, cyc, t_init, o, tr, scratch))
     row, c, ratios, S, d, E, X = veh.rows[i], veh.c, veh.ratios, veh.shift, veh.cd, veh.E, veh.X
@@ -834,7 +841,7 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
 
 
 @njit(cache=True, nogil=True)
-def drive_conventional(veh: KernelVehicle, cyc: KernelCycle, t_init, out, traces, rec_index, start: int, stop: int):
+def drive_conventional(veh: ConventionalRec, cyc: KernelCycle, t_init, out, traces, rec_index, start: int, stop: int):
     """As :func:`drive_hybrid` for the conventional car."""
     scratch = np.empty(th_.N_SCRATCH)  # the thermal model's working row, design after design
     for i in range(start, stop):
