@@ -355,8 +355,8 @@ def test_force_limited_step_converges_from_the_envelope_and_without_it(sim):
         R_N_BAT,
         CarrierReach,
         StepRoad,
-        _limited_split,
         chassis,
+        limited_step_split,
         pack_limits,
         split_design,
     )
@@ -378,7 +378,7 @@ def test_force_limited_step_converges_from_the_envelope_and_without_it(sim):
         cmd = split.SplitCommand(f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0)
         st = split.dispatch(lim, cmd, d, E, M, G)
         reach = CarrierReach(0.0, np.inf, 0.0)
-        st, v, u, env = _limited_split(v0, v_req, v_req, cmd, StepRoad(sn, cs, 1.0), st, env, reach, ch, dl)
+        st, v, u, env = limited_step_split(v0, v_req, v_req, cmd, StepRoad(sn, cs, 1.0), st, env, reach, ch, dl)
         lim = split.limits(v, d, E, M, G)
         assert st == split.dispatch(lim, split.at_power(cmd, lim.p_e_max), d, E, M, G)  # the state at v
         assert abs(u - v) <= SPEED_TOL and u == mean_speed_for_force(v0, st.f_del, sn, cs, 1.0, ch)

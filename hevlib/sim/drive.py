@@ -410,7 +410,7 @@ def _newton_from(v0, v_e, f_e, slope, sn, cs, dt, v_max, ch: Chassis) -> float:
 
 
 @njit(cache=True)
-def _limited_split(
+def limited_step_split(
     v0,
     v_req,
     v_cap,
@@ -422,7 +422,8 @@ def _limited_split(
     ch,
     dl: split.SplitDriveline,
 ):
-    """Solve a force-limited step of the power-split car: the mean speed ``v`` (<= ``v_cap``) at which
+    """Solve a force-limited step of the power-split car (the drive loop's, and each step of the performance
+    tests' full-power launch): the mean speed ``v`` (<= ``v_cap``) at which
     the force the driveline gives at ``v`` (``st``: its state at ``v_req``; ``cmd``'s at full engine power) buys
     exactly ``v``.
 
@@ -481,8 +482,8 @@ def _limited_split(
 
 
 @njit(cache=True)
-def _limited_conv(v0, v_req, v_cap, cmd: ConvCommand, road: StepRoad, st, ch, d, E):
-    """As :func:`_limited_split` for the conventional car in a fixed gear and clutch state (fixed-point start)."""
+def limited_step_conv(v0, v_req, v_cap, cmd: ConvCommand, road: StepRoad, st, ch, d, E):
+    """As :func:`limited_step_split` for the conventional car in a fixed gear and clutch state (fixed-point start)."""
     f_cmd, ratio, slip = cmd
     sn, cs, dt = road
     v_a = v_req
@@ -514,7 +515,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
     eng_on, t_state = OFF, 1e9
     cdyn = split.carrier_dynamics(d, G, c.j_start, c.j_gen, c.t_crank, c.w_fire, dt)
     w_c, was_running = 0.0, False  # carrier speed at the end of the last step; the engine fired then
-    env = NO_ENVELOPE  # the last force-limited step's point on the full-power force envelope (_limited_split)
+    env = NO_ENVELOPE  # the last force-limited step's point on the full-power force envelope (limited_step_split)
     soc_lo, soc_hi = soc, soc
     n = v_ref.shape[0]
     k_th, temp, q_th = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o, scratch)
@@ -599,7 +600,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
                     limited = _falls_short(st.f_del, f_req)
                 if limited:
                     reach = CarrierReach(w_from, dw, j_dt)
-                    st, v_disp, v_avg, env = _limited_split(v0, v_req, v_req, cmd, road, st, env, reach, ch, dl)
+                    st, v_disp, v_avg, env = limited_step_split(v0, v_req, v_req, cmd, road, st, env, reach, ch, dl)
                 else:
                     v_avg = v_req
                     f_brake = f_req - st.f_del
@@ -794,7 +795,9 @@ def _conventional_one(veh: ConventionalRec, i: int, cyc: KernelCycle, t_init, o,
                 v_avg = mean_speed_for_force(v0, 0.0, sn, cs, dt, ch)  # coasting with the clutch open
                 v_disp = v_avg
             else:
-                st, v_disp, v_avg = _limited_conv(v0, v_req, v_req, ConvCommand(f_cmd, ratio, slip), road, st, ch, d, E)
+                st, v_disp, v_avg = limited_step_conv(
+                    v0, v_req, v_req, ConvCommand(f_cmd, ratio, slip), road, st, ch, d, E
+                )
         else:
             v_avg = v_req
             f_brake = f_req - st.f_del

@@ -27,10 +27,10 @@ from hevlib.sim.drive import (
     DriveConfig,
     HybridRec,
     StepRoad,
-    _limited_conv,
-    _limited_split,
     chassis,
     conventional_equivalent_mass_kg,
+    limited_step_conv,
+    limited_step_split,
     pack_limits,
     split_design,
     split_equivalent_mass_kg,
@@ -139,7 +139,7 @@ def _launch_step_impl(v, dt, f, env):
         def hybrid(v, dt, f, env):
             cmd, st = _hybrid_state(v, f)
             reach = CarrierReach(0.0, np.inf, 0.0)
-            _, _, v_avg, env = _limited_split(
+            _, _, v_avg, env = limited_step_split(
                 v, v, f.v_lim_mps, cmd, StepRoad(0.0, 1.0, dt), st, env, reach, f.ch, f.dl
             )
             return v_avg, env
@@ -158,7 +158,7 @@ def _launch_step_impl(v, dt, f, env):
                 st_c = conv.dispatch(v, f_cmd, ratios[g], not engaged, cd, E)
                 ch_g = chassis(m, conventional_equivalent_mass_kg(m, ratios[g], engaged, cd.s_eng, c), c)
                 cmd = ConvCommand(f_cmd, ratios[g], not engaged)
-                v_avg = max(v_avg, _limited_conv(v, v, f.v_lim_mps, cmd, road, st_c, ch_g, cd, E)[2])
+                v_avg = max(v_avg, limited_step_conv(v, v, f.v_lim_mps, cmd, road, st_c, ch_g, cd, E)[2])
             return v_avg, env
 
         return conventional
@@ -189,7 +189,7 @@ def _launch_and_top(veh, i: int, dt, t_max):
     v_lim = f.v_lim_mps
     # ---- launch: each step the speed the full force buys (as in a force-limited driving step)
     v, t, f_max, t100 = 0.0, 0.0, 0.0, np.inf
-    env = NO_ENVELOPE  # full-power force envelope, carried from step to step (see _limited_split)
+    env = NO_ENVELOPE  # full-power force envelope, carried from step to step (see limited_step_split)
     while t < t_max and v < v_lim:
         v_avg, env = _launch_step(v, dt, f, env)
         v_next = min(max(2.0 * v_avg - v, 0.0), v_lim)
