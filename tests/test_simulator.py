@@ -12,7 +12,7 @@ from hevlib.cycles import build_cycles
 from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
 from hevlib.doe import lhs_designs
 from hevlib.sim.drive import R_MASS, SPEED_TOL, split_equivalent_mass_kg
-from hevlib.sim.powertrain.battery import current_for_power, power_limits
+from hevlib.sim.powertrain.battery import PackLimits, current_for_power, power_limits
 from hevlib.sim.powertrain.layout import OUT_NAMES
 from hevlib.sim.powertrain.planetary import carrier_speed, carrier_speed_window, split_torque, sun_speed
 from hevlib.sim.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_total
@@ -320,13 +320,14 @@ def test_battery_rint_model_round_trip_and_limits():
         i = current_for_power(p, voc, r_d, r_c)
         r = r_d if i >= 0 else r_c
         assert voc * i - r * i * i == pytest.approx(p, abs=1e-6)
-    p_dis, p_chg = power_limits(voc, r_d, r_c, 150.0, 292.5, 200.0, 0.6, 0.4, 0.8, 7.4 * 3600, 0.99, 1.0)
+    lim = PackLimits(150.0, 292.5, 200.0, 0.4, 0.8, 7.4 * 3600, 0.99, 1.0)
+    p_dis, p_chg = power_limits(voc, r_d, r_c, 0.6, lim)
     i_dis = current_for_power(p_dis, voc, r_d, r_c)
     i_chg = current_for_power(-p_chg, voc, r_d, r_c)
     assert i_dis <= 200.0 + 1e-9 and voc - r_d * i_dis >= 150.0 - 1e-9
     assert -i_chg <= 200.0 + 1e-9 and voc - r_c * i_chg <= 292.5 + 1e-9
     # at the bottom of the SOC window nothing more may be drawn
-    assert power_limits(voc, r_d, r_c, 150.0, 292.5, 200.0, 0.4, 0.4, 0.8, 7.4 * 3600, 0.99, 1.0)[0] == 0.0
+    assert power_limits(voc, r_d, r_c, 0.4, lim)[0] == 0.0
 
 
 def test_adhesion_and_force_speed_solution():
@@ -347,7 +348,18 @@ def test_force_limited_step_converges_from_the_envelope_and_without_it(sim):
     """A force-limited step's speed is the fixed point v = v_bought(F(v)) to SPEED_TOL, whether the solve starts
     from the previous step's point on the full-power envelope or from the fixed-point step (no envelope), and
     a stale envelope (far away, wrong slope) costs iterations, not the answer."""
-    from hevlib.sim.drive import N_R, NO_ENVELOPE, ON, R_N_BAT, _limited_split, chassis, pack_limits, split_design
+    from hevlib.sim.drive import (
+        N_R,
+        NO_ENVELOPE,
+        ON,
+        R_N_BAT,
+        CarrierReach,
+        StepRoad,
+        chassis,
+        limited_step_split,
+        pack_limits,
+        split_design,
+    )
     from hevlib.sim.powertrain import hybrid as split
 
     veh = sim.vehicle(pd.DataFrame([dict(zip(DESIGN_VARS, [25, 20, 5, 4.5, 10, 78, 30], strict=True))])).kernel
@@ -355,6 +367,7 @@ def test_force_limited_step_converges_from_the_envelope_and_without_it(sim):
     assert row.shape == (N_R,)
     c, E, M, G = veh.c, veh.E, veh.M, veh.G
     d = split_design(row, c)
+    dl = split.SplitDriveline(d, E, M, G)
     ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c), c)
     p_dis, p_chg = pack_limits(0.6, row[R_N_BAT], c, veh.B)
     sn, cs = np.sin(np.arctan(0.2)), np.cos(np.arctan(0.2))
@@ -362,12 +375,12 @@ def test_force_limited_step_converges_from_the_envelope_and_without_it(sim):
 
     def solve(v0, v_req, env):
         lim = split.limits(v_req, d, E, M, G)
-        st = split.dispatch(lim, f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0, d, E, M, G)
-        st, v, u, env = _limited_split(
-            v0, v_req, v_req, f_cmd, ON, p_dis, p_chg, 1.0, sn, cs, 1.0, st, env, 0.0, np.inf, 0.0, d, ch, E, M, G
-        )
+        cmd = split.SplitCommand(f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0)
+        st = split.dispatch(lim, cmd, d, E, M, G)
+        reach = CarrierReach(0.0, np.inf, 0.0)
+        st, v, u, env = limited_step_split(v0, v_req, v_req, cmd, StepRoad(sn, cs, 1.0), st, env, reach, ch, dl)
         lim = split.limits(v, d, E, M, G)
-        assert st == split.dispatch(lim, f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0, d, E, M, G)  # the state at v
+        assert st == split.dispatch(lim, split.at_power(cmd, lim.p_e_max), d, E, M, G)  # the state at v
         assert abs(u - v) <= SPEED_TOL and u == mean_speed_for_force(v0, st.f_del, sn, cs, 1.0, ch)
         assert st.f_del < f_cmd and v < v_req
         return v, env

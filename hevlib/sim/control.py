@@ -99,6 +99,19 @@ class PmsConfig(NamedTuple):
     p_full_w: float  # road power at or above which a running engine is asked for full power (inf: rule off)
 
 
+class Observed(NamedTuple):
+    """What the supervisory controller sees at the start of a step (:func:`supervise`)."""
+
+    engine_on: bool
+    t_in_state_s: float  # time since the engine last changed state
+    soc: float
+    grade: float  # road grade, rise over run
+    v_kmh: float  # vehicle speed
+    t_r_req_nm: float  # ring torque the driver asks for
+    p_dis_w: float  # battery discharge power limit
+    t_coolant_c: float
+
+
 def thresholds(pms) -> np.ndarray:
     """The 14-value threshold array ``rule_strengths`` reads, from the ``pms`` params group."""
     keys = ("soc_low", "soc_high", "grade_low", "grade_high", "speed_high_kmh", "torque_low", "torque_high")
@@ -107,22 +120,16 @@ def thresholds(pms) -> np.ndarray:
 
 @njit(cache=True, inline="always")
 def supervise(
-    engine_on: bool,
-    t_in_state_s: float,
-    soc: float,
-    grade: float,
-    v_kmh: float,
+    obs: Observed,
     lim: SplitLimits,
-    t_r_req: float,
-    p_dis: float,
-    t_coolant_c: float,
     th: np.ndarray,
     pc: PmsConfig,
     d: SplitDesign,
     E: EngineArrays,
     M: MachineArrays,
 ) -> tuple[bool, float]:
-    """Engine ON/OFF and target engine power (W) for the next step.
+    """Engine ON/OFF and target engine power (W) for the next step, from what the controller sees (``obs``) and
+    the driveline's limits at this step's speed (``lim``).
 
     Order of authority: physics first (the engine cannot run when its speed window is empty; it must run
     whenever it can and the battery alone cannot carry the traction or the accessory load), then the
@@ -134,6 +141,7 @@ def supervise(
     below target), floored at ``p_min_w``, capped by what the engine can give; boost, or road power at or
     above ``p_full_w`` (ADVISOR's Prius), = full power.
     """
+    engine_on, t_in_state_s, soc, grade, v_kmh, t_r_req, p_dis, t_coolant_c = obs
     w_r, t_m_cap = lim.w_r, lim.t_m_cap
     can_run = lim.lo <= lim.hi
     k = d.n_r / d.n_s

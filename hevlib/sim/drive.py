@@ -16,12 +16,12 @@ import numpy as np
 from numba import njit
 
 from hevlib.cycles import KernelCycle
-from hevlib.sim.control import PmsConfig, supervise
+from hevlib.sim.control import Observed, PmsConfig, supervise
 from hevlib.sim.powertrain import conventional as conv
 from hevlib.sim.powertrain import hybrid as split
 from hevlib.sim.powertrain import layout as L  # O_*, T_* column indices (compile-time constants)
 from hevlib.sim.powertrain import thermal as th_
-from hevlib.sim.powertrain.battery import current_for_power, power_limits
+from hevlib.sim.powertrain.battery import PackLimits, current_for_power, power_limits
 from hevlib.sim.powertrain.borrow import borrowed
 from hevlib.sim.powertrain.engine import EngineArrays, max_torque, rates
 from hevlib.sim.powertrain.lookup import cell, interp1_np
@@ -92,12 +92,9 @@ class DriveConfig(NamedTuple):
     w_fire: float  # firing speed: fuel flows from here up, rad/s
 
 
-class KernelVehicle(NamedTuple):
-    """One batch of vehicles as every kernel reads it (:meth:`hevlib.sim.vehicles.Vehicle.from_design`): the
-    argument list of :func:`drive_hybrid`, :func:`drive_conventional` and the performance tests, written once.
-
-    One type for both drivelines (the conventional car carries the library's machines, pack and controller
-    unread; the hybrid the gearbox), so each kernel compiles one signature."""
+class HybridRec(NamedTuple):
+    """A batch of power-split hybrids as :func:`drive_hybrid` and the performance tests read them
+    (:meth:`hevlib.sim.vehicles.Vehicle.from_design`): what those kernels read, nothing else."""
 
     rows: np.ndarray  # (n, N_R) per-design rows, R_* columns
     c: DriveConfig
@@ -107,10 +104,59 @@ class KernelVehicle(NamedTuple):
     M: MachineArrays
     G: MachineArrays
     B: BatteryArrays
-    ratios: np.ndarray  # conventional gearbox: overall ratio of each gear ...
+    X: th_.ThermalConfig
+
+
+class ConventionalRec(NamedTuple):
+    """A batch of conventional cars as :func:`drive_conventional` and the performance tests read them: no
+    battery, machines or controller (the rows' R_S_MOT .. R_N_S columns are unread)."""
+
+    rows: np.ndarray  # (n, N_R) per-design rows: R_MASS, R_SOC0 (the engine's scale is cd.s_eng)
+    c: DriveConfig
+    E: EngineArrays
+    ratios: np.ndarray  # gearbox: overall ratio of each gear ...
     shift: conv.ShiftLogic  # ... and its shift logic
     cd: conv.ConvDesign
     X: th_.ThermalConfig
+
+
+class StepRoad(NamedTuple):
+    """The road under one step: the grade's sine and cosine, and the step's length."""
+
+    sin_g: float
+    cos_g: float
+    dt_s: float
+
+
+class CarrierReach(NamedTuple):
+    """How far the power-split car's carrier can move in one step (engine dynamics): its speed at the start,
+    the most change, and its inertia over the step (:func:`hevlib.sim.powertrain.hybrid.within_rate`)."""
+
+    w_from_rad_s: float
+    dw_rad_s: float
+    j_dt: float  # carrier inertia / dt (0: left out), N m s/rad
+
+
+class EngineOp(NamedTuple):
+    """The engine's operating point over one step."""
+
+    running: bool  # fuelled
+    w_e_rad_s: float
+    t_e_nm: float
+
+
+class ConvCommand(NamedTuple):
+    """What one step asks of the conventional car's driveline in a fixed gear and clutch state."""
+
+    f_req_n: float
+    ratio: float  # overall ratio of the gear in use
+    slip: bool  # clutch slipping
+
+
+@njit(cache=True, inline="always")
+def _key_off(dt: float) -> th_.ThermalStep:
+    """What a key-off step (nothing runs) of length ``dt`` hands the thermal nodes."""
+    return th_.ThermalStep(OFF, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt)
 
 
 #: Achieved speed below which the car counts as standing still, m/s (and the trace as asking it to move
@@ -204,20 +250,17 @@ def pack_state(soc: float, n_bat: float, B: BatteryArrays) -> tuple[float, float
 def pack_power_limits(ocv: float, r_d: float, r_c: float, soc: float, soc_floor: float, n_bat: float, c: DriveConfig):
     """(max discharge, max charge) terminal power of the pack in state (``ocv``, ``r_d``, ``r_c``) at ``soc``, W,
     discharging down to ``soc_floor`` (the controller's window: ``c.soc_min``)."""
-    return power_limits(
-        ocv,
-        r_d,
-        r_c,
+    lim = PackLimits(
         in_series(c.v_min_mod, n_bat),
         in_series(c.v_max_mod, n_bat),
         c.i_max_a,
-        soc,
         soc_floor,
         c.soc_max,
         c.cap_as,
         c.eta_c,
         c.dt,
     )
+    return power_limits(ocv, r_d, r_c, soc, lim)
 
 
 @njit(cache=True, inline="always")
@@ -245,26 +288,29 @@ def _book_engine(o, fuel, hc, co, nox, p_shaft, lhv_j_per_g, dt):
 
 
 @njit(cache=True, inline="always")
-def _exhaust(o, temp, k, q, X, key, fuel, q_waste, w_e, hc, co, nox, v_avg, dt, t, tr, record):
-    """Thermal nodes and tailpipe emissions of one step (and their trace channels)."""
-    tp_hc, tp_co, tp_nox = th_.thermal_step(temp, k, q, X, key, fuel, q_waste, w_e, hc, co, nox, v_avg, dt, o)
-    th_.check_light_off(temp, X, (t + 1) * dt, o)
+def _exhaust(o, nodes: th_.ThermalNodes, s: th_.ThermalStep, t, tr, record):
+    """Thermal nodes and tailpipe emissions of step ``t`` (and their trace channels)."""
+    temp, k, q, X = nodes
+    tp_hc, tp_co, tp_nox = th_.thermal_step(temp, k, q, X, s, o)
+    th_.check_light_off(temp, X, (t + 1) * s.dt_s, o)
     if record:
         tr[t + 1, L.T_T_COOLANT] = temp[th_.N_BLOCK]
         tr[t + 1, L.T_T_CAT] = temp[th_.N_MON]
-        tr[t + 1, L.T_HC_EO] = hc
-        tr[t + 1, L.T_CO_EO] = co
-        tr[t + 1, L.T_NOX_EO] = nox
+        tr[t + 1, L.T_HC_EO] = s.hc_g_s
+        tr[t + 1, L.T_CO_EO] = s.co_g_s
+        tr[t + 1, L.T_NOX_EO] = s.nox_g_s
         tr[t + 1, L.T_HC_TP] = tp_hc
         tr[t + 1, L.T_CO_TP] = tp_co
         tr[t + 1, L.T_NOX_TP] = tp_nox
 
 
 @njit(cache=True, inline="always")
-def _engine_step(o, temp, k, q, X, running, w_e, t_e, s_eng, E, c, v_avg, t, tr, record):
-    """One key-on step of the engine at (``w_e``, ``t_e``): fuel and engine-out rates from the hot maps times
-    the cold-engine factors of the block temperature (none while it does not run), its energy terms, then
-    the thermal nodes and the tailpipe (:func:`_exhaust`). Returns the fuel rate, g/s."""
+def _engine_step(o, nodes: th_.ThermalNodes, op: EngineOp, s_eng, E, c, v_avg, t, tr, record):
+    """One key-on step of the engine at ``op``: fuel and engine-out rates from the hot maps times the cold-engine
+    factors of the block temperature (none while it does not run), its energy terms, then the thermal nodes and
+    the tailpipe (:func:`_exhaust`). Returns the fuel rate, g/s."""
+    running, w_e, t_e = op
+    temp, X = nodes.temp_c, nodes.cfg
     fuel = hot = hc = co = nox = 0.0
     if running:
         hot, hc, co, nox = rates(w_e, max(t_e, 0.0), s_eng, E)
@@ -278,14 +324,15 @@ def _engine_step(o, temp, k, q, X, running, w_e, t_e, s_eng, E, c, v_avg, t, tr,
     # ADVISOR's 'fc temp' takes the waste heat and the exhaust flow from the hot map's fuel: a cold engine's
     # surplus fuel leaves unburnt (the extra HC and CO of the cold factors) and heats nothing
     q_waste = hot * c.lhv_j_per_g - p_shaft
-    _exhaust(o, temp, k, q, X, ON, hot, q_waste, w_e, hc, co, nox, v_avg, c.dt, t, tr, record)
+    _exhaust(o, nodes, th_.ThermalStep(ON, hot, q_waste, w_e, hc, co, nox, v_avg, c.dt), t, tr, record)
     return fuel
 
 
 @njit(cache=True, inline="always")
-def _book_wheel(o, f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch):
+def _book_wheel(o, f_del, v_disp, f_brake, v0, v_avg, limited, road: StepRoad, ch):
     """Work at the wheels (driveline, friction brakes) against road loads, grade and inertia; for a
     force-limited step also the residual of its speed fixed point."""
+    sn, cs, dt = road
     fa, fr, fg, fx = road_force(v_avg, sn, cs, ch)
     w_wheel = f_del * v_disp * dt
     if w_wheel >= 0.0:
@@ -363,19 +410,33 @@ def _newton_from(v0, v_e, f_e, slope, sn, cs, dt, v_max, ch: Chassis) -> float:
 
 
 @njit(cache=True)
-def _limited_split(
-    v0, v_req, v_cap, f_cmd, eng_on, p_dis, p_chg, regen, sn, cs, dt, st, env, w_from, dw, j_dt, d, ch, E, M, G
+def limited_step_split(
+    v0,
+    v_req,
+    v_cap,
+    cmd: split.SplitCommand,
+    road: StepRoad,
+    st,
+    env,
+    reach: CarrierReach,
+    ch,
+    dl: split.SplitDriveline,
 ):
-    """Solve a force-limited step of the power-split car: the mean speed ``v`` (<= ``v_cap``) at which
-    the force the driveline gives at ``v`` (``st``: its state at ``v_req``) buys exactly ``v``.
+    """Solve a force-limited step of the power-split car (the drive loop's, and each step of the performance
+    tests' full-power launch): the mean speed ``v`` (<= ``v_cap``) at which
+    the force the driveline gives at ``v`` (``st``: its state at ``v_req``; ``cmd``'s at full engine power) buys
+    exactly ``v``.
 
     ``env = (v, F, dF/dv)``: a point of the full-power force envelope against speed and its slope, from the
     previous force-limited step (``v < 0``: none). Consecutive limited steps have nearly the same envelope and
     nearby solutions, so the first guess is the Newton step from that point (else the fixed-point step from
     ``v_req``), the second a Newton step with the slope, then secant steps, until the speed bought is within
-    ``SPEED_TOL``. The engine's speeds stay within ``w_from +/- dw``, its carrier's inertia ``j_dt``
+    ``SPEED_TOL``. The engine's speeds stay within the carrier's ``reach``
     (:func:`hevlib.sim.powertrain.hybrid.within_rate`).
     Returns (state, v_disp, v_avg, the envelope point and slope for the next solve)."""
+    sn, cs, dt = road
+    w_from, dw, j_dt = reach
+    d, E, M, G = dl
     v_e, f_e, slope = env
     u = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch)
     v_a, f_a, h_a = v_req, st.f_del, u - v_req
@@ -386,7 +447,7 @@ def _limited_split(
     f_b = f_a
     for it in range(12):
         lim = split.within_rate(split.limits(v_b, d, E, M, G), w_from, dw, j_dt, d, E, G)
-        st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis, p_chg, regen, d, E, M, G)
+        st = split.dispatch(lim, split.at_power(cmd, lim.p_e_max), d, E, M, G)
         f_b = st.f_del
         u = mean_speed_for_force(v0, f_b, sn, cs, dt, ch)
         h_b = u - v_b
@@ -404,7 +465,7 @@ def _limited_split(
         for _ in range(64):
             v_b = 0.5 * (v_lo + v_hi)
             lim = split.within_rate(split.limits(v_b, d, E, M, G), w_from, dw, j_dt, d, E, G)
-            st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis, p_chg, regen, d, E, M, G)
+            st = split.dispatch(lim, split.at_power(cmd, lim.p_e_max), d, E, M, G)
             f_b = st.f_del
             u = mean_speed_for_force(v0, f_b, sn, cs, dt, ch)
             h_b = u - v_b
@@ -421,8 +482,10 @@ def _limited_split(
 
 
 @njit(cache=True)
-def _limited_conv(v0, v_req, v_cap, f_cmd, ratio, slip, sn, cs, dt, st, d, ch, E):
-    """As :func:`_limited_split` for the conventional car in a fixed gear and clutch state (fixed-point start)."""
+def limited_step_conv(v0, v_req, v_cap, cmd: ConvCommand, road: StepRoad, st, ch, d, E):
+    """As :func:`limited_step_split` for the conventional car in a fixed gear and clutch state (fixed-point start)."""
+    f_cmd, ratio, slip = cmd
+    sn, cs, dt = road
     v_a = v_req
     h_a = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_a
     v_b = min(max(v_a + h_a, 0.0), v_cap)
@@ -436,7 +499,7 @@ def _limited_conv(v0, v_req, v_cap, f_cmd, ratio, slip, sn, cs, dt, st, d, ch, E
 
 
 @njit(cache=True)
-def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
+def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
     # everything below reads the caller's arrays through views that are not reference-counted (borrow.py)
     veh, cyc, t_init, o, tr, scratch = borrowed((veh, cyc, t_init, o, tr, scratch))
     row, c, th, pc, E, M, G, B, X = veh.rows[i], veh.c, veh.th, veh.pc, veh.E, veh.M, veh.G, veh.B, veh.X
@@ -452,13 +515,16 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
     eng_on, t_state = OFF, 1e9
     cdyn = split.carrier_dynamics(d, G, c.j_start, c.j_gen, c.t_crank, c.w_fire, dt)
     w_c, was_running = 0.0, False  # carrier speed at the end of the last step; the engine fired then
-    env = NO_ENVELOPE  # the last force-limited step's point on the full-power force envelope (_limited_split)
+    env = NO_ENVELOPE  # the last force-limited step's point on the full-power force envelope (limited_step_split)
     soc_lo, soc_hi = soc, soc
     n = v_ref.shape[0]
     k_th, temp, q_th = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o, scratch)
+    nodes = th_.ThermalNodes(temp, k_th, q_th, X)
+    dl = split.SplitDriveline(d, E, M, G)
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]
+        road = StepRoad(sn, cs, dt)
         v_ref_next = v_ref[t + 1]
         v_tgt = min(v_ref_next, v_lim)
         ocv, r_d, r_c = pack_state(soc, n_bat, B)
@@ -469,7 +535,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             eng_on = OFF
             w_c, was_running = 0.0, False
             _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.off_trace_mps)
-            _exhaust(o, temp, k_th, q_th, X, OFF, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, t, tr, record)
+            _exhaust(o, nodes, _key_off(dt), t, tr, record)
             t_state += dt
             if record:
                 tr[t + 1, L.T_SOC] = soc
@@ -491,9 +557,8 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             dw = dt * (1.0 + k) * torque_limit(sun_speed(w_from, lim.w_r, d.n_r, d.n_s), d.s_gen, G) / cdyn.j
             lim = split.within_rate(lim, w_from, dw, j_dt, d, E, G)
         t_r_req = split.ring_torque_for_wheel_force(f_cmd, d)
-        want, p_target = supervise(
-            eng_on, t_state, soc, gr, v0 * 3.6, lim, t_r_req, p_dis, temp[th_.N_BLOCK], th, pc, d, E, M
-        )
+        seen = Observed(eng_on, t_state, soc, gr, v0 * 3.6, t_r_req, p_dis, temp[th_.N_BLOCK])
+        want, p_target = supervise(seen, lim, th, pc, d, E, M)
         e_start = t_su = p_start = 0.0
         lim_off = lim  # the window without a start (a start narrows it to the carrier's reach from firing speed)
         if dynamics and want and not was_running:
@@ -521,7 +586,8 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             # the start's battery power is held back from what the dispatch may use (below zero: the engine
             # charges it back within the step, so the controller's SOC window holds)
             p_dis_d, p_chg_d = p_dis - p_start, p_chg + p_start
-            st = split.dispatch(lim, f_cmd, eng_on, p_target, p_dis_d, p_chg_d, regen, d, E, M, G)
+            cmd = split.SplitCommand(f_cmd, eng_on, p_target, p_dis_d, p_chg_d, regen)
+            st = split.dispatch(lim, cmd, d, E, M, G)
             v_disp = v_req
             f_brake = 0.0
             limited = not stationary and _falls_short(st.f_del, f_req)
@@ -530,32 +596,11 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             elif limited:
                 # the driver floors it: engine at full power, then the speed this force buys (fixed point)
                 if eng_on and p_target < lim.p_e_max:
-                    st = split.dispatch(lim, f_cmd, eng_on, lim.p_e_max, p_dis_d, p_chg_d, regen, d, E, M, G)
+                    st = split.dispatch(lim, split.at_power(cmd, lim.p_e_max), d, E, M, G)
                     limited = _falls_short(st.f_del, f_req)
                 if limited:
-                    st, v_disp, v_avg, env = _limited_split(
-                        v0,
-                        v_req,
-                        v_req,
-                        f_cmd,
-                        eng_on,
-                        p_dis_d,
-                        p_chg_d,
-                        regen,
-                        sn,
-                        cs,
-                        dt,
-                        st,
-                        env,
-                        w_from,
-                        dw,
-                        j_dt,
-                        d,
-                        ch,
-                        E,
-                        M,
-                        G,
-                    )
+                    reach = CarrierReach(w_from, dw, j_dt)
+                    st, v_disp, v_avg, env = limited_step_split(v0, v_req, v_req, cmd, road, st, env, reach, ch, dl)
                 else:
                     v_avg = v_req
                     f_brake = f_req - st.f_del
@@ -587,7 +632,8 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
             o[L.O_ENG_ON_STEPS] += 1.0
         elif st.w_e > 0.0:
             o[L.O_ENG_SPUN_STEPS] += 1.0  # spun by the gear set with its fuel cut
-        fuel = _engine_step(o, temp, k_th, q_th, X, st.running, st.w_e, st.t_e, d.s_eng, E, c, v_avg, t, tr, record)
+        op = EngineOp(st.running, st.w_e, st.t_e)
+        fuel = _engine_step(o, nodes, op, d.s_eng, E, c, v_avg, t, tr, record)
         o[L.O_E_BATT] += p_chem * dt
         o[L.O_E_LOSS_BATT] += (p_chem - p_batt) * dt
         o[L.O_E_LOSS_MOT] += (st.p_m_e - st.t_m * st.w_r) * dt
@@ -601,7 +647,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
         o[L.O_E_LOSS_FD] += (st.t_r * st.w_r - st.f_del * v_disp) * dt
         o[L.O_E_ACC] += st.p_acc * dt
         o[L.O_E_ACC_UNMET] += (d.p_acc_w - st.p_acc) * dt
-        _book_wheel(o, st.f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch)
+        _book_wheel(o, st.f_del, v_disp, f_brake, v0, v_avg, limited, road, ch)
         a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt, c.off_trace_mps)
         soc_lo, soc_hi = min(soc_lo, soc), max(soc_hi, soc)
         # ---- limits
@@ -663,7 +709,7 @@ def _hybrid_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, rec
 
 
 @njit(cache=True, nogil=True)
-def drive_hybrid(veh: KernelVehicle, cyc: KernelCycle, t_init, out, traces, rec_index, start: int, stop: int):
+def drive_hybrid(veh: HybridRec, cyc: KernelCycle, t_init, out, traces, rec_index, start: int, stop: int):
     """Drive designs ``start .. stop - 1`` of ``veh`` (its rows) over ``cyc`` from the thermal start ``t_init``;
     fill their rows of ``out`` (``O_*`` columns) and, where ``rec_index`` is >= 0, that trace of ``traces``.
     Releases the GIL: :func:`hevlib.sim.simulator.in_parallel` runs chunks of a batch on threads."""
@@ -674,7 +720,7 @@ def drive_hybrid(veh: KernelVehicle, cyc: KernelCycle, t_init, out, traces, rec_
 
 
 @njit(cache=True)
-def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
+def _conventional_one(veh: ConventionalRec, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
     # the caller's arrays through views that are not reference-counted (borrow.py)
     veh, cyc, t_init, o, tr, scratch = borrowed((veh, cyc, t_init, o, tr, scratch))
     row, c, ratios, S, d, E, X = veh.rows[i], veh.c, veh.ratios, veh.shift, veh.cd, veh.E, veh.X
@@ -690,15 +736,17 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
     gear, g_1, g_2 = 0, 0, 0  # the gear held and those of the two steps before it (ADVISOR's downshift guard)
     clutch = conv.OPEN
     k_th, temp, q_th = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o, scratch)
+    nodes = th_.ThermalNodes(temp, k_th, q_th, X)
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]
+        road = StepRoad(sn, cs, dt)
         v_ref_next = v_ref[t + 1]
         v_tgt = min(v_ref_next, v_lim)
         stationary = v0 <= 1e-9 and v_tgt <= 1e-9
         if stationary and not key_on[t]:
             _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.off_trace_mps)
-            _exhaust(o, temp, k_th, q_th, X, OFF, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, t, tr, record)
+            _exhaust(o, nodes, _key_off(dt), t, tr, record)
             if record:
                 tr[t + 1, L.T_GRADE] = gr
             continue
@@ -747,13 +795,15 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
                 v_avg = mean_speed_for_force(v0, 0.0, sn, cs, dt, ch)  # coasting with the clutch open
                 v_disp = v_avg
             else:
-                st, v_disp, v_avg = _limited_conv(v0, v_req, v_req, f_cmd, ratio, slip, sn, cs, dt, st, d, ch, E)
+                st, v_disp, v_avg = limited_step_conv(
+                    v0, v_req, v_req, ConvCommand(f_cmd, ratio, slip), road, st, ch, d, E
+                )
         else:
             v_avg = v_req
             f_brake = f_req - st.f_del
         v_next = max(2.0 * v_avg - v0, 0.0)
         running = clutch != conv.OPEN or d.idle_allowed
-        fuel = _engine_step(o, temp, k_th, q_th, X, running, st.w_e, st.t_e, d.s_eng, E, c, v_avg, t, tr, record)
+        fuel = _engine_step(o, nodes, EngineOp(running, st.w_e, st.t_e), d.s_eng, E, c, v_avg, t, tr, record)
         if running:
             o[L.O_E_ACC] += d.p_acc_w * dt
             o[L.O_ENG_ON_STEPS] += 1.0
@@ -761,7 +811,7 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
             o[L.O_E_ACC_UNMET] += d.p_acc_w * dt  # ADVISOR switches the accessories off with the engine
         o[L.O_E_LOSS_GB] += st.loss_gb_w * dt
         o[L.O_E_LOSS_CLUTCH] += st.loss_clutch_w * dt
-        _book_wheel(o, st.f_del, v_disp, f_brake, v0, v_avg, limited, sn, cs, dt, ch)
+        _book_wheel(o, st.f_del, v_disp, f_brake, v0, v_avg, limited, road, ch)
         a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt, c.off_trace_mps)
         if _over(st.w_e, d.w_e_max) or _over(st.t_e, max_torque(st.w_e, d.s_eng, E)):
             o[L.O_LIMIT_VIOLATIONS] += 1.0
@@ -794,7 +844,7 @@ def _conventional_one(veh: KernelVehicle, i: int, cyc: KernelCycle, t_init, o, t
 
 
 @njit(cache=True, nogil=True)
-def drive_conventional(veh: KernelVehicle, cyc: KernelCycle, t_init, out, traces, rec_index, start: int, stop: int):
+def drive_conventional(veh: ConventionalRec, cyc: KernelCycle, t_init, out, traces, rec_index, start: int, stop: int):
     """As :func:`drive_hybrid` for the conventional car."""
     scratch = np.empty(th_.N_SCRATCH)  # the thermal model's working row, design after design
     for i in range(start, stop):

@@ -10,19 +10,27 @@ above the speed the component speed limits allow through ``i0`` and the gear set
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from hevlib.sim.drive import (
     NO_ENVELOPE,
     ON,
     R_MASS,
     R_N_BAT,
-    KernelVehicle,
-    _limited_conv,
-    _limited_split,
+    CarrierReach,
+    ConvCommand,
+    ConventionalRec,
+    DriveConfig,
+    HybridRec,
+    StepRoad,
     chassis,
     conventional_equivalent_mass_kg,
+    limited_step_conv,
+    limited_step_split,
     pack_limits,
     split_design,
     split_equivalent_mass_kg,
@@ -31,18 +39,85 @@ from hevlib.sim.drive import (
 from hevlib.sim.powertrain import conventional as conv
 from hevlib.sim.powertrain import hybrid as split
 from hevlib.sim.powertrain.borrow import borrowed
-from hevlib.sim.powertrain.vehicle import adhesion_limit, road_total
+from hevlib.sim.powertrain.engine import EngineArrays
+from hevlib.sim.powertrain.vehicle import Chassis, adhesion_limit, road_total
 
 V_100 = 100.0 / 3.6
 BIG_FORCE = 1e7
 
 
+class HybridFlat(NamedTuple):
+    """One power-split design on the flat-road tests: its chassis, the pack's power limits at the initial SOC,
+    its driveline and the top speed its components allow (m/s)."""
+
+    ch: Chassis
+    p_dis_w: float
+    p_chg_w: float
+    dl: split.SplitDriveline
+    v_lim_mps: float
+
+
+class ConventionalFlat(NamedTuple):
+    """One conventional car on the flat-road tests: its chassis (clutch open), mass, drive settings, gearbox and
+    engine, and its top speed in the highest gear at the engine's speed limit (m/s)."""
+
+    ch: Chassis
+    m_kg: float
+    c: DriveConfig
+    ratios: np.ndarray
+    cd: conv.ConvDesign
+    E: EngineArrays
+    v_lim_mps: float
+
+
+def _is(ty, cls) -> bool:
+    return isinstance(ty, types.BaseNamedTuple) and ty.instance_class is cls
+
+
+# ---- what differs between the two kinds, chosen by the record's type while numba compiles (no kind flag)
+def _flat(veh, i):
+    """The flat-road record (:class:`HybridFlat`, :class:`ConventionalFlat`) of design ``i`` of ``veh``."""
+
+
+def _launch_step(v, dt, f, env):
+    """(mean speed over a full-force launch step from ``v``, the force envelope for the next)."""
+
+
+def _force(v, f):
+    """The most force the driveline gives at steady speed ``v`` on a flat road, N."""
+
+
+@overload(_flat)
+def _flat_impl(veh, i):
+    if _is(veh, HybridRec):
+
+        def hybrid(veh, i):
+            row, c = veh.rows[i], veh.c
+            d = split_design(row, c)
+            ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c), c)
+            p_dis, p_chg = pack_limits(c.soc_init, row[R_N_BAT], c, veh.B)
+            return HybridFlat(ch, p_dis, p_chg, split.SplitDriveline(d, veh.E, veh.M, veh.G), split_speed_limit(d))
+
+        return hybrid
+    if _is(veh, ConventionalRec):
+
+        def conventional(veh, i):
+            m, c, cd = veh.rows[i][R_MASS], veh.c, veh.cd
+            ch = chassis(m, conventional_equivalent_mass_kg(m, 0.0, False, cd.s_eng, c), c)
+            return ConventionalFlat(ch, m, c, veh.ratios, cd, veh.E, cd.w_e_max * cd.r / veh.ratios[-1])
+
+        return conventional
+    return None
+
+
 @njit(cache=True)
-def _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G):
-    """Everything the power-split driveline can give at speed ``v`` on a flat road."""
+def _hybrid_state(v, f: HybridFlat):
+    """(command, state): everything the power-split driveline can give at speed ``v`` on a flat road."""
+    ch, dl = f.ch, f.dl
     f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
-    lim = split.limits(v, d, E, M, G)
-    return f_cmd, split.dispatch(lim, f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0, d, E, M, G)
+    lim = split.limits(v, dl.d, dl.E, dl.M, dl.G)
+    cmd = split.SplitCommand(f_cmd, ON, lim.p_e_max, f.p_dis_w, f.p_chg_w, 1.0)
+    return cmd, split.dispatch(lim, cmd, dl.d, dl.E, dl.M, dl.G)
 
 
 @njit(cache=True)
@@ -57,53 +132,66 @@ def _conv_gear(v, ratios, d, ch, E):
     return f_cmd, g_best, st_best
 
 
-@njit(cache=True)
-def _surplus(kind, v, p_dis, p_chg, ratios, d, cd, ch, E, M, G):
-    """Force left over the flat-road load at steady speed ``v``, N."""
-    if kind == 0:
-        f = _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G)[1].f_del
-    else:
-        f = _conv_gear(v, ratios, cd, ch, E)[2].f_del
-    return f - road_total(v, 0.0, 1.0, ch)
+@overload(_launch_step)
+def _launch_step_impl(v, dt, f, env):
+    if _is(f, HybridFlat):
 
-
-@njit(cache=True)
-def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
-    """kind 0: power-split hybrid, 1: conventional. Returns (f_max, t_0_100_s, v_max_kmh)."""
-    row, c, ratios, E, M, G, B = borrowed((row, c, ratios, E, M, G, B))  # not reference-counted (borrow.py)
-    d = split_design(row, c)
-    m = row[R_MASS]
-    ch = chassis(
-        m,
-        split_equivalent_mass_kg(row, c) if kind == 0 else conventional_equivalent_mass_kg(m, 0.0, False, cd.s_eng, c),
-        c,
-    )
-    if kind == 0:
-        p_dis, p_chg = pack_limits(c.soc_init, row[R_N_BAT], c, B)
-        v_lim = split_speed_limit(d)
-    else:
-        p_dis, p_chg = 0.0, 0.0
-        v_lim = cd.w_e_max * cd.r / ratios[-1]
-    # ---- launch: each step the speed the full force buys (as in a force-limited driving step)
-    v, t, f_max, t100 = 0.0, 0.0, 0.0, np.inf
-    env = NO_ENVELOPE  # full-power force envelope, carried from step to step (see _limited_split)
-    while t < t_max and v < v_lim:
-        if kind == 0:
-            f_cmd, st = _hybrid_state(v, p_dis, p_chg, d, ch, E, M, G)
-            _, _, v_avg, env = _limited_split(
-                v, v, v_lim, f_cmd, ON, p_dis, p_chg, 1.0, 0.0, 1.0, dt, st, env, 0.0, np.inf, 0.0, d, ch, E, M, G
+        def hybrid(v, dt, f, env):
+            cmd, st = _hybrid_state(v, f)
+            reach = CarrierReach(0.0, np.inf, 0.0)
+            _, _, v_avg, env = limited_step_split(
+                v, v, f.v_lim_mps, cmd, StepRoad(0.0, 1.0, dt), st, env, reach, f.ch, f.dl
             )
-        else:
+            return v_avg, env
+
+        return hybrid
+    if _is(f, ConventionalFlat):
+
+        def conventional(v, dt, f, env):
             # the gear that gains most speed over the step (a gear running out of revs mid-step loses)
+            ch, m, c, ratios, cd, E = f.ch, f.m_kg, f.c, f.ratios, f.cd, f.E
             f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
             v_avg = 0.0
+            road = StepRoad(0.0, 1.0, dt)
             for g in range(ratios.shape[0]):
                 engaged = conv.clutch_closed(v, ratios[g], cd)  # the engine is reflected
                 st_c = conv.dispatch(v, f_cmd, ratios[g], not engaged, cd, E)
                 ch_g = chassis(m, conventional_equivalent_mass_kg(m, ratios[g], engaged, cd.s_eng, c), c)
-                v_avg = max(
-                    v_avg, _limited_conv(v, v, v_lim, f_cmd, ratios[g], not engaged, 0.0, 1.0, dt, st_c, cd, ch_g, E)[2]
-                )
+                cmd = ConvCommand(f_cmd, ratios[g], not engaged)
+                v_avg = max(v_avg, limited_step_conv(v, v, f.v_lim_mps, cmd, road, st_c, ch_g, cd, E)[2])
+            return v_avg, env
+
+        return conventional
+    return None
+
+
+@overload(_force)
+def _force_impl(v, f):
+    if _is(f, HybridFlat):
+        return lambda v, f: _hybrid_state(v, f)[1].f_del
+    if _is(f, ConventionalFlat):
+        return lambda v, f: _conv_gear(v, f.ratios, f.cd, f.ch, f.E)[2].f_del
+    return None
+
+
+@njit(cache=True, inline="always")
+def _surplus(v, f):
+    """Force left over the flat-road load at steady speed ``v``, N."""
+    return _force(v, f) - road_total(v, 0.0, 1.0, f.ch)
+
+
+@njit(cache=True)
+def _launch_and_top(veh, i: int, dt, t_max):
+    """Design ``i`` of ``veh`` (:class:`~hevlib.sim.drive.HybridRec` or
+    :class:`~hevlib.sim.drive.ConventionalRec`). Returns (f_max, t_0_100_s, v_max_kmh)."""
+    veh = borrowed(veh)  # not reference-counted (borrow.py)
+    f = _flat(veh, i)
+    v_lim = f.v_lim_mps
+    # ---- launch: each step the speed the full force buys (as in a force-limited driving step)
+    v, t, f_max, t100 = 0.0, 0.0, 0.0, np.inf
+    env = NO_ENVELOPE  # full-power force envelope, carried from step to step (see limited_step_split)
+    while t < t_max and v < v_lim:
+        v_avg, env = _launch_step(v, dt, f, env)
         v_next = min(max(2.0 * v_avg - v, 0.0), v_lim)
         a = (v_next - v) / dt
         f_max = max(f_max, a)
@@ -114,18 +202,18 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
             break
         v, t = v_next, t + dt
     # ---- top speed: the largest v <= v_lim with force >= road load (coarse scan down, then bisection)
-    if _surplus(kind, v_lim, p_dis, p_chg, ratios, d, cd, ch, E, M, G) >= 0.0:
+    if _surplus(v_lim, f) >= 0.0:
         return f_max, t100, v_lim * 3.6
     hi = v_lim
     lo = hi
     while lo > 0.0:
         lo = max(lo - 5.0, 0.0)
-        if _surplus(kind, lo, p_dis, p_chg, ratios, d, cd, ch, E, M, G) >= 0.0:
+        if _surplus(lo, f) >= 0.0:
             break
         hi = lo
     while hi - lo > 1e-3:
         mid = 0.5 * (lo + hi)
-        if _surplus(kind, mid, p_dis, p_chg, ratios, d, cd, ch, E, M, G) >= 0.0:
+        if _surplus(mid, f) >= 0.0:
             lo = mid
         else:
             hi = mid
@@ -133,12 +221,11 @@ def _launch_and_top(kind, row, c, ratios, cd, E, M, G, B, dt, t_max):
 
 
 @njit(cache=True, nogil=True)
-def performance_batch(kind: int, veh: KernelVehicle, dt: float, t_max: float, out: np.ndarray, start: int, stop: int):
+def performance_batch(veh, dt: float, t_max: float, out: np.ndarray, start: int, stop: int):
     """Rows ``start .. stop - 1`` of ``out`` (n, 3): f_max (m/s^2), t_0_100_s, v_max (km/h) of those designs of
-    ``veh`` (kind 0: power-split hybrid, 1: conventional), launched at ``dt`` for at most ``t_max`` seconds.
-    Releases the GIL (:func:`hevlib.sim.simulator.in_parallel`)."""
+    ``veh`` (a :class:`~hevlib.sim.drive.HybridRec` or a :class:`~hevlib.sim.drive.ConventionalRec`: one
+    compiled kernel each), launched at ``dt`` for at most ``t_max`` seconds. Releases the GIL
+    (:func:`hevlib.sim.simulator.in_parallel`)."""
     for i in range(start, stop):
-        f_max, t100, v_max = _launch_and_top(
-            kind, veh.rows[i], veh.c, veh.ratios, veh.cd, veh.E, veh.M, veh.G, veh.B, dt, t_max
-        )
+        f_max, t100, v_max = _launch_and_top(veh, i, dt, t_max)
         out[i, 0], out[i, 1], out[i, 2] = f_max, t100, v_max

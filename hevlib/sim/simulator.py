@@ -142,9 +142,8 @@ def charge_balance(
 def performance_tests(vehicle: Vehicle) -> np.ndarray:
     """(n, 3): highest launch acceleration (m/s^2), 0-100 km/h time (s) and top speed (km/h) on a flat road."""
     sim = vehicle.library.params.sim
-    kind = 1 if vehicle.kind == "conventional" else 0
     out = np.empty((vehicle.n, 3))
-    in_parallel(performance_batch, vehicle.n, kind, vehicle.kernel, sim.perf_dt_s, sim.perf_max_time_s, out)
+    in_parallel(performance_batch, vehicle.n, vehicle.kernel, sim.perf_dt_s, sim.perf_max_time_s, out)
     return out
 
 

@@ -1,6 +1,7 @@
 """Vehicles as the kernels read them: the component library and the params packed once into arrays
 (:class:`KernelLibrary`), and one typed record per batch of designs (:class:`Vehicle`, its
-:class:`~hevlib.sim.drive.KernelVehicle`) built from named design columns.
+:class:`~hevlib.sim.drive.HybridRec` or :class:`~hevlib.sim.drive.ConventionalRec`) built from named design
+columns.
 
 Three kinds of vehicle:
 
@@ -34,8 +35,9 @@ from hevlib.sim.drive import (
     R_S_MOT,
     R_SOC0,
     BatteryArrays,
+    ConventionalRec,
     DriveConfig,
-    KernelVehicle,
+    HybridRec,
 )
 from hevlib.sim.powertrain.conventional import ConvDesign, ShiftLogic
 from hevlib.sim.powertrain.engine import EngineArrays
@@ -356,11 +358,12 @@ def design_frame(design, space: DesignSpace) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class Vehicle:
     """A batch of vehicles of one kind: the designs (``DESIGN_VARS`` columns; NaN for what a conventional car
-    lacks) and the :class:`~hevlib.sim.drive.KernelVehicle` record the kernels read."""
+    lacks) and the record the kernels read: a :class:`~hevlib.sim.drive.HybridRec` (``hybrid``, ``prius``) or a
+    :class:`~hevlib.sim.drive.ConventionalRec` (``conventional``)."""
 
     kind: Kind
     design: pd.DataFrame
-    kernel: KernelVehicle
+    kernel: HybridRec | ConventionalRec
     library: KernelLibrary
 
     @property
@@ -409,20 +412,12 @@ class Vehicle:
             rows[:, R_N_S] = d["n_s"]
         rows[:, R_MASS] = mass_kg
         rows[:, R_SOC0] = library.params.sim.soc_init
-        kernel = KernelVehicle(
-            rows,
-            library.configs[kind],
-            library.thresholds,
-            library.pms,
-            library.engines[kind],
-            library.motor,
-            library.generator,
-            library.pack,
-            library.ratios,
-            library.shift,
-            library.gearbox,
-            library.thermal[kind],
-        )
+        c, E, th = library.configs[kind], library.engines[kind], library.thermal[kind]
+        if kind == "conventional":
+            kernel = ConventionalRec(rows, c, E, library.ratios, library.shift, library.gearbox, th)
+        else:
+            M, G, B = library.motor, library.generator, library.pack
+            kernel = HybridRec(rows, c, library.thresholds, library.pms, E, M, G, B, th)
         return cls(kind, pd.DataFrame(X, columns=list(DESIGN_VARS)), kernel, library)
 
     def with_soc_init(self, soc: np.ndarray | float) -> Vehicle:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 from numba import njit
 
@@ -22,26 +23,28 @@ def current_for_power(p_w: float, voc: float, r_dis: float, r_chg: float) -> flo
     return (voc - math.sqrt(disc)) / (2.0 * r_chg)
 
 
+class PackLimits(NamedTuple):
+    """What bounds the pack's power over one step besides its state (:func:`power_limits`)."""
+
+    v_min_v: float  # terminal voltage window of the pack
+    v_max_v: float
+    i_max_a: float  # most current either way
+    soc_min: float  # SOC window the step may not leave
+    soc_max: float
+    capacity_as: float  # capacity, A s
+    eta_c: float  # coulombic efficiency of charging
+    dt_s: float  # the step
+
+
 @njit(cache=True, inline="always")
-def power_limits(
-    voc: float,
-    r_dis: float,
-    r_chg: float,
-    v_min: float,
-    v_max: float,
-    i_max: float,
-    soc: float,
-    soc_min: float,
-    soc_max: float,
-    capacity_as: float,
-    eta_c: float,
-    dt: float,
-) -> tuple[float, float]:
-    """(max discharge, max charge) terminal power in W, both >= 0.
+def power_limits(voc: float, r_dis: float, r_chg: float, soc: float, lim: PackLimits) -> tuple[float, float]:
+    """(max discharge, max charge) terminal power in W, both >= 0, of the pack at open-circuit voltage ``voc`` with
+    resistances ``r_dis``/``r_chg`` at ``soc``.
 
     Limits: terminal voltage within [v_min, v_max], |current| <= i_max, matched-load power, and the
     SOC window (the step may not take SOC outside [soc_min, soc_max]).
     """
+    v_min, v_max, i_max, soc_min, soc_max, capacity_as, eta_c, dt = lim
     i_dis = min(i_max, (voc - v_min) / r_dis, voc / (2.0 * r_dis), (soc - soc_min) * capacity_as / dt)
     i_dis = max(i_dis, 0.0)
     p_dis = voc * i_dis - r_dis * i_dis * i_dis

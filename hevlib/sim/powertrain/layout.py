@@ -21,75 +21,8 @@ E_FUEL a cold engine burns above its hot map (the cold-engine factor's surplus);
 ADVISOR, heats nothing: the thermal nodes get the hot map's waste heat and exhaust flow.
 """
 
-# ---- accumulated results per design
-(
-    O_FUEL_G,
-    O_HC_G,
-    O_CO_G,
-    O_NOX_G,
-    O_DIST_M,
-    O_DIST_REF_M,
-    O_SPEED_ERR_SUM,
-    O_N_STEPS,
-    O_ACC_SHORT,
-    O_ACC_REQ,
-    O_SOC_END,
-    O_MAX_SPEED_ERR,
-    O_E_FUEL,
-    O_E_BATT,
-    O_E_ENG_SHAFT,
-    O_E_LOSS_ENG,
-    O_E_LOSS_MOT,
-    O_E_LOSS_GEN,
-    O_E_LOSS_PG,
-    O_E_LOSS_FD,
-    O_E_LOSS_GB,
-    O_E_LOSS_CLUTCH,
-    O_E_LOSS_BATT,
-    O_E_ACC,
-    O_E_BRAKE,
-    O_E_ROAD,
-    O_E_GRADE,
-    O_E_KIN_END,
-    O_E_MISMATCH,
-    O_E_TRACTION,
-    O_E_REGEN,
-    O_ENG_ON_STEPS,
-    O_N_STARTS,
-    O_SOC_MIN_SEEN,
-    O_SOC_MAX_SEEN,
-    O_LIMIT_VIOLATIONS,
-    O_E_ACC_UNMET,
-    O_E_GEN_ELEC_OUT,
-    O_E_GEN_MECH_IN,
-    O_N_LIMITED,
-    O_OFF_TRACE_S,
-    O_STUCK_NOW_S,
-    O_STUCK_MAX_S,
-    O_ENG_SPUN_STEPS,
-    O_HC_TP_G,
-    O_CO_TP_G,
-    O_NOX_TP_G,
-    O_T_LIGHT_OFF_S,
-    O_Q_CYL_J,
-    O_Q_EXHAUST_J,
-    O_Q_TAILPIPE_J,
-    O_Q_EXOTHERM_J,
-    O_Q_RADIATOR_J,
-    O_Q_AMBIENT_J,
-    O_U_THERMAL_START_J,
-    O_U_THERMAL_END_J,
-    O_T_COOLANT_END_C,
-    O_T_CAT_END_C,
-    O_T_CAT_MAX_C,
-    O_E_ENGINE_START,
-    O_E_ENGINE_INERTIA,
-    O_E_SHAFT_FUELLED,
-    O_ACC_ABS_ERR,
-    O_ACC_REQ_MAX,
-    O_E_FUEL_COLD,
-) = range(65)
-N_O = 65
+# ---- accumulated results per design: the names define the columns (each O_* is its name's index, a
+# module-level int numba reads as a compile-time constant), so no second list can drift from them
 OUT_NAMES = (
     "fuel_g",
     "hc_g",
@@ -157,6 +90,73 @@ OUT_NAMES = (
     "acc_req_max_mps2",
     "e_fuel_cold_surplus_j",
 )
+N_O = len(OUT_NAMES)
+assert len(set(OUT_NAMES)) == N_O, "a column name twice"
+O_FUEL_G = OUT_NAMES.index("fuel_g")
+O_HC_G = OUT_NAMES.index("hc_g")
+O_CO_G = OUT_NAMES.index("co_g")
+O_NOX_G = OUT_NAMES.index("nox_g")
+O_DIST_M = OUT_NAMES.index("dist_m")
+O_DIST_REF_M = OUT_NAMES.index("dist_ref_m")
+O_SPEED_ERR_SUM = OUT_NAMES.index("speed_err_sum_mps")
+O_N_STEPS = OUT_NAMES.index("n_steps")
+O_ACC_SHORT = OUT_NAMES.index("acc_short_sum_mps2")
+O_ACC_REQ = OUT_NAMES.index("acc_req_sum_mps2")
+O_SOC_END = OUT_NAMES.index("soc_end")
+O_MAX_SPEED_ERR = OUT_NAMES.index("max_speed_err_mps")
+O_E_FUEL = OUT_NAMES.index("e_fuel_j")
+O_E_BATT = OUT_NAMES.index("e_batt_j")
+O_E_ENG_SHAFT = OUT_NAMES.index("e_eng_shaft_j")
+O_E_LOSS_ENG = OUT_NAMES.index("e_loss_eng_j")
+O_E_LOSS_MOT = OUT_NAMES.index("e_loss_mot_j")
+O_E_LOSS_GEN = OUT_NAMES.index("e_loss_gen_j")
+O_E_LOSS_PG = OUT_NAMES.index("e_loss_pg_j")
+O_E_LOSS_FD = OUT_NAMES.index("e_loss_fd_j")
+O_E_LOSS_GB = OUT_NAMES.index("e_loss_gb_j")
+O_E_LOSS_CLUTCH = OUT_NAMES.index("e_loss_clutch_j")
+O_E_LOSS_BATT = OUT_NAMES.index("e_loss_batt_j")
+O_E_ACC = OUT_NAMES.index("e_acc_j")
+O_E_BRAKE = OUT_NAMES.index("e_brake_j")
+O_E_ROAD = OUT_NAMES.index("e_road_j")
+O_E_GRADE = OUT_NAMES.index("e_grade_j")
+O_E_KIN_END = OUT_NAMES.index("e_kin_end_j")
+O_E_MISMATCH = OUT_NAMES.index("e_mismatch_j")
+O_E_TRACTION = OUT_NAMES.index("e_traction_j")
+O_E_REGEN = OUT_NAMES.index("e_regen_j")
+O_ENG_ON_STEPS = OUT_NAMES.index("eng_on_steps")
+O_N_STARTS = OUT_NAMES.index("n_starts")
+O_SOC_MIN_SEEN = OUT_NAMES.index("soc_min_seen")
+O_SOC_MAX_SEEN = OUT_NAMES.index("soc_max_seen")
+O_LIMIT_VIOLATIONS = OUT_NAMES.index("limit_violations")
+O_E_ACC_UNMET = OUT_NAMES.index("e_acc_unmet_j")
+O_E_GEN_ELEC_OUT = OUT_NAMES.index("e_gen_elec_out_j")
+O_E_GEN_MECH_IN = OUT_NAMES.index("e_gen_mech_in_j")
+O_N_LIMITED = OUT_NAMES.index("n_limited")
+O_OFF_TRACE_S = OUT_NAMES.index("off_trace_s")
+O_STUCK_NOW_S = OUT_NAMES.index("stuck_now_s")
+O_STUCK_MAX_S = OUT_NAMES.index("stuck_max_s")
+O_ENG_SPUN_STEPS = OUT_NAMES.index("eng_spun_steps")
+O_HC_TP_G = OUT_NAMES.index("hc_tailpipe_g")
+O_CO_TP_G = OUT_NAMES.index("co_tailpipe_g")
+O_NOX_TP_G = OUT_NAMES.index("nox_tailpipe_g")
+O_T_LIGHT_OFF_S = OUT_NAMES.index("t_cat_light_off_s")
+O_Q_CYL_J = OUT_NAMES.index("q_cyl_j")
+O_Q_EXHAUST_J = OUT_NAMES.index("q_exhaust_j")
+O_Q_TAILPIPE_J = OUT_NAMES.index("q_tailpipe_j")
+O_Q_EXOTHERM_J = OUT_NAMES.index("q_exotherm_j")
+O_Q_RADIATOR_J = OUT_NAMES.index("q_radiator_j")
+O_Q_AMBIENT_J = OUT_NAMES.index("q_ambient_j")
+O_U_THERMAL_START_J = OUT_NAMES.index("u_thermal_start_j")
+O_U_THERMAL_END_J = OUT_NAMES.index("u_thermal_end_j")
+O_T_COOLANT_END_C = OUT_NAMES.index("t_coolant_end_c")
+O_T_CAT_END_C = OUT_NAMES.index("t_cat_end_c")
+O_T_CAT_MAX_C = OUT_NAMES.index("t_cat_max_c")
+O_E_ENGINE_START = OUT_NAMES.index("e_engine_start_j")
+O_E_ENGINE_INERTIA = OUT_NAMES.index("e_engine_inertia_j")
+O_E_SHAFT_FUELLED = OUT_NAMES.index("e_shaft_fuelled_j")
+O_ACC_ABS_ERR = OUT_NAMES.index("acc_abs_err_sum_mps2")
+O_ACC_REQ_MAX = OUT_NAMES.index("acc_req_max_mps2")
+O_E_FUEL_COLD = OUT_NAMES.index("e_fuel_cold_surplus_j")
 #: Heat balance of the thermal nodes (hevlib.sim.powertrain.thermal): stored heat change = sources - sinks.
 THERMAL_SOURCES = ("q_cyl_j", "q_exhaust_j", "q_exotherm_j")
 THERMAL_SINKS = ("q_tailpipe_j", "q_radiator_j", "q_ambient_j")
@@ -180,45 +180,7 @@ BALANCE_SINKS = (
     "e_engine_inertia_j",
 )
 
-# ---- trace channels (one row per time step, recorded designs only)
-(
-    T_V_REF,
-    T_V,
-    T_SOC,
-    T_W_E,
-    T_T_E,
-    T_W_M,
-    T_T_M,
-    T_W_G,
-    T_T_G,
-    T_P_BATT,
-    T_FUEL,
-    T_ENG_ON,
-    T_F_PT,
-    T_F_BRK,
-    T_GEAR,
-    T_A_REQ,
-    T_A_ACH,
-    T_P_MOT_E,
-    T_P_GEN_E,
-    T_T_E_MAX,
-    T_T_M_MAX,
-    T_T_G_MAX,
-    T_GRADE,
-    T_P_ACC_UNMET,
-    T_M_EFF,
-    T_T_COOLANT,
-    T_T_CAT,
-    T_HC_EO,
-    T_CO_EO,
-    T_NOX_EO,
-    T_HC_TP,
-    T_CO_TP,
-    T_NOX_TP,
-    T_P_ENGINE_START,
-    T_T_INERTIA,
-) = range(35)
-N_T = 35
+# ---- trace channels (one row per time step, recorded designs only): T_* as O_* above
 TRACE_NAMES = (
     "v_ref_mps",
     "v_mps",
@@ -256,3 +218,40 @@ TRACE_NAMES = (
     "p_engine_start_w",
     "t_eng_inertia_nm",
 )
+N_T = len(TRACE_NAMES)
+assert len(set(TRACE_NAMES)) == N_T, "a channel name twice"
+T_V_REF = TRACE_NAMES.index("v_ref_mps")
+T_V = TRACE_NAMES.index("v_mps")
+T_SOC = TRACE_NAMES.index("soc")
+T_W_E = TRACE_NAMES.index("w_eng_rad_s")
+T_T_E = TRACE_NAMES.index("t_eng_nm")
+T_W_M = TRACE_NAMES.index("w_mot_rad_s")
+T_T_M = TRACE_NAMES.index("t_mot_nm")
+T_W_G = TRACE_NAMES.index("w_gen_rad_s")
+T_T_G = TRACE_NAMES.index("t_gen_nm")
+T_P_BATT = TRACE_NAMES.index("p_batt_w")
+T_FUEL = TRACE_NAMES.index("fuel_g_s")
+T_ENG_ON = TRACE_NAMES.index("eng_on")
+T_F_PT = TRACE_NAMES.index("f_pt_n")
+T_F_BRK = TRACE_NAMES.index("f_brake_n")
+T_GEAR = TRACE_NAMES.index("gear")
+T_A_REQ = TRACE_NAMES.index("a_req_mps2")
+T_A_ACH = TRACE_NAMES.index("a_ach_mps2")
+T_P_MOT_E = TRACE_NAMES.index("p_mot_elec_w")
+T_P_GEN_E = TRACE_NAMES.index("p_gen_elec_w")
+T_T_E_MAX = TRACE_NAMES.index("t_eng_max_nm")
+T_T_M_MAX = TRACE_NAMES.index("t_mot_max_nm")
+T_T_G_MAX = TRACE_NAMES.index("t_gen_max_nm")
+T_GRADE = TRACE_NAMES.index("grade")
+T_P_ACC_UNMET = TRACE_NAMES.index("p_acc_unmet_w")
+T_M_EFF = TRACE_NAMES.index("m_eff_kg")
+T_T_COOLANT = TRACE_NAMES.index("t_coolant_c")
+T_T_CAT = TRACE_NAMES.index("t_cat_c")
+T_HC_EO = TRACE_NAMES.index("hc_engine_out_g_s")
+T_CO_EO = TRACE_NAMES.index("co_engine_out_g_s")
+T_NOX_EO = TRACE_NAMES.index("nox_engine_out_g_s")
+T_HC_TP = TRACE_NAMES.index("hc_tailpipe_g_s")
+T_CO_TP = TRACE_NAMES.index("co_tailpipe_g_s")
+T_NOX_TP = TRACE_NAMES.index("nox_tailpipe_g_s")
+T_P_ENGINE_START = TRACE_NAMES.index("p_engine_start_w")
+T_T_INERTIA = TRACE_NAMES.index("t_eng_inertia_nm")

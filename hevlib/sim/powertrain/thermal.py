@@ -158,6 +158,29 @@ def cold_factors(t_block_c: float, t: ThermalConfig) -> tuple[float, float, floa
     return 1.0 + 0.1 * lam**0.65, 1.0 + 8.05 * lam**9.46, 1.0 + 2.13 * lam**4.26, 1.0 + 0.51 * lam**1.37
 
 
+class ThermalStep(NamedTuple):
+    """What one drive step hands the thermal nodes (:func:`thermal_step`)."""
+
+    key_on: bool
+    fuel_g_s: float  # the engine's hot-map fuel rate (0: no exhaust flow)
+    q_waste_w: float  # its waste heat: hot-map fuel power - shaft power (a cold engine's surplus fuel heats nothing)
+    w_e_rad_s: float  # its speed
+    hc_g_s: float  # engine-out emission rates
+    co_g_s: float
+    nox_g_s: float
+    v_mps: float  # vehicle speed (the air-side convection)
+    dt_s: float
+
+
+class ThermalNodes(NamedTuple):
+    """One design's thermal nodes while it drives: the views :func:`start` returns and the config."""
+
+    temp_c: np.ndarray  # node temperatures
+    k: np.ndarray  # per-design constants (heat capacities, areas, sub-steps; K_* indices)
+    q_w: np.ndarray  # net heat into each node (scratch)
+    cfg: ThermalConfig
+
+
 #: Length of the scratch row :func:`start` lays out: the per-design constants, the node temperatures and the
 #: net heat of each node.
 N_SCRATCH = N_K + 2 * N_NODES
@@ -336,29 +359,13 @@ def at_ambient(temp: np.ndarray, amb_c: float) -> bool:
 
 @njit(cache=True)
 def thermal_step(
-    temp: np.ndarray,
-    k: np.ndarray,
-    q: np.ndarray,
-    t: ThermalConfig,
-    key_on: bool,
-    fuel_g_s: float,
-    q_waste_w: float,
-    w_e: float,
-    eo_hc: float,
-    eo_co: float,
-    eo_nox: float,
-    v_mps: float,
-    dt: float,
-    o: np.ndarray,
+    temp: np.ndarray, k: np.ndarray, q: np.ndarray, t: ThermalConfig, s: ThermalStep, o: np.ndarray
 ) -> tuple[float, float, float]:
-    """Advance the nine nodes ``temp`` over one drive step; return the tailpipe (HC, CO, NOx) rates, g/s.
-    ``q`` is scratch space (:func:`start`).
-
-    ``q_waste_w``: the engine's waste heat (hot-map fuel power - shaft power: the engine loss of the energy
-    balance less a cold engine's surplus fuel) of the step, ``fuel_g_s`` its hot-map fuel rate (0: no exhaust
-    flow), ``w_e`` its speed. Accumulates the
-    heat terms ``O_Q_*`` of :mod:`hevlib.sim.powertrain.layout` in ``o``.
+    """Advance the nine nodes ``temp`` over the drive step ``s`` (:class:`ThermalStep`); return the tailpipe
+    (HC, CO, NOx) rates, g/s. ``q`` is scratch space (:func:`start`). Accumulates the heat terms ``O_Q_*`` of
+    :mod:`hevlib.sim.powertrain.layout` in ``o``.
     """
+    key_on, fuel_g_s, q_waste_w, w_e, eo_hc, eo_co, eo_nox, v_mps, dt = s
     amb = t.amb_c
     if fuel_g_s == 0.0 and q_waste_w == 0.0 and eo_hc + eo_co + eo_nox == 0.0 and at_ambient(temp, amb):
         return 0.0, 0.0, 0.0  # no heat in and every node at ambient: nothing flows, nothing changes
