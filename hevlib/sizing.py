@@ -6,7 +6,7 @@ factor ``s = P_target / P_base``; efficiency maps are unchanged on normalised to
 ADVISOR's rules: engine (block + accessories) x s plus a fixed fuel system, exhaust 0.26 kg/kW,
 machines x s, battery per module. Every function is vectorised over designs.
 
-The law itself lives once, in the kernels' :mod:`hevlib.sim.powertrain.scaling`; this module applies it to
+The law itself lives once, in the kernels' :mod:`hevlib.scaling`; this module applies it to
 whole maps and arrays of designs (reports, plots, the mass model).
 """
 
@@ -29,8 +29,8 @@ from hevlib.components import (
     read_paper_row,
 )
 from hevlib.design import DESIGN_VARS
-from hevlib.sim.powertrain.scaling import in_series, scaled
-from hevlib.sim.powertrain.scaling import power_scale as kernel_power_scale
+from hevlib.scaling import in_series, scaled
+from hevlib.scaling import power_scale as kernel_power_scale
 
 if TYPE_CHECKING:
     from hevlib.params import BaselineParams

@@ -46,6 +46,8 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "hevlib.components",
             "hevlib.cycles",
             "hevlib.doe",
+            "hevlib.lookup",
+            "hevlib.scaling",
             "hevlib.sim",
             "hevlib.sizing",
             "hevlib.warmup",

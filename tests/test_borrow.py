@@ -11,10 +11,10 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from hevlib.lookup import interp1_np
 from hevlib.sim.powertrain import thermal as T
 from hevlib.sim.powertrain.borrow import borrowed
 from hevlib.sim.powertrain.layout import N_O
-from hevlib.sim.powertrain.lookup import interp1_np
 
 
 @intrinsic

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hevlib.sim.powertrain.lookup import interp_map
+from hevlib.lookup import interp_map
 
 RPM = np.pi / 30.0  # rad/s per rpm
 

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from hevlib.components import RPM, ComponentLibrary, EngineMap, MachineMap, best_efficiency_line
+from hevlib.lookup import interp_map
 from hevlib.plots import plt, save_figure
-from hevlib.sim.powertrain.lookup import interp_map
 
 _N = 160  # grid points per axis of the contour plots
 

@@ -16,6 +16,8 @@ import numpy as np
 from numba import njit
 
 from hevlib.cycles import KernelCycle
+from hevlib.lookup import cell, interp1_np
+from hevlib.scaling import in_series
 from hevlib.sim.control import Observed, PmsConfig, supervise
 from hevlib.sim.powertrain import conventional as conv
 from hevlib.sim.powertrain import hybrid as split
@@ -24,10 +26,8 @@ from hevlib.sim.powertrain import thermal as th_
 from hevlib.sim.powertrain.battery import PackLimits, current_for_power, power_limits
 from hevlib.sim.powertrain.borrow import borrowed
 from hevlib.sim.powertrain.engine import EngineArrays, max_torque, rates
-from hevlib.sim.powertrain.lookup import cell, interp1_np
 from hevlib.sim.powertrain.machines import MachineArrays, electric_power, torque_limit
 from hevlib.sim.powertrain.planetary import sun_speed
-from hevlib.sim.powertrain.scaling import in_series
 from hevlib.sim.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_force
 
 LIMIT_TOL = 1e-9  # relative tolerance of the limit checks

@@ -21,6 +21,7 @@ import pandas as pd
 
 from hevlib.components import Catalyst, ComponentLibrary, EngineMap, EngineThermal, MachineMap, best_efficiency_line
 from hevlib.design import DESIGN_VARS, DesignSpace, design_vector
+from hevlib.lookup import resample, uniform_axis
 from hevlib.params import Params
 from hevlib.sim.control import PmsConfig, thresholds
 from hevlib.sim.drive import (
@@ -41,7 +42,6 @@ from hevlib.sim.drive import (
 )
 from hevlib.sim.powertrain.conventional import ConvDesign, ShiftLogic
 from hevlib.sim.powertrain.engine import EngineArrays
-from hevlib.sim.powertrain.lookup import resample, uniform_axis
 from hevlib.sim.powertrain.machines import MachineArrays
 from hevlib.sim.powertrain.thermal import ThermalConfig, start_temperatures
 from hevlib.sizing import conventional_chassis_kg, hybrid_masses

@@ -11,8 +11,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from hevlib.sim.powertrain.lookup import blend, cell, interp1, interp_uniform
-from hevlib.sim.powertrain.scaling import base_torque, scaled
+from hevlib.lookup import blend, cell, interp1, interp_uniform
+from hevlib.scaling import base_torque, scaled
 
 
 class EngineArrays(NamedTuple):

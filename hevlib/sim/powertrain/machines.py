@@ -12,8 +12,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from hevlib.sim.powertrain.lookup import blend, cell
-from hevlib.sim.powertrain.scaling import base_torque, scaled
+from hevlib.lookup import blend, cell
+from hevlib.scaling import base_torque, scaled
 
 
 class MachineArrays(NamedTuple):

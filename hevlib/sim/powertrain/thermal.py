@@ -45,8 +45,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from hevlib.lookup import bracket, interp1
 from hevlib.sim.powertrain import layout as L
-from hevlib.sim.powertrain.lookup import bracket, interp1
 
 SIGMA = 5.670374419e-8  # Stefan-Boltzmann, W/m^2/K^4
 KELVIN = 273.15
