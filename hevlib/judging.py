@@ -61,6 +61,13 @@ def screened_normalisation(tables: Sequence[Table], screen) -> Normalisation:
     return Normalisation.from_points(F)
 
 
+#: What :func:`judged_normalisation` is built from, as the reports say it (``normalisation.built_from``).
+JUDGED_SCALE = (
+    "screen-passing designs of data/judge/reference.parquet, the judged scale (`hev judge`: a Latin hypercube of "
+    "admissible designs no source produced; never given to a search)"
+)
+
+
 def judged_normalisation(reference: Table, screen) -> Normalisation:
     """The normalisation every source is judged on: :func:`screened_normalisation` of the judged scale's
     reference set (``hev judge``: a large Latin hypercube of admissible designs, unprefixed responses as

@@ -47,7 +47,7 @@ from hevlib.indicators import (
     pick_random,
     rank_by,
 )
-from hevlib.judging import HvSettings, objective_matrix, spread
+from hevlib.judging import JUDGED_SCALE, HvSettings, objective_matrix, spread
 from hevlib.recommend import shortlist
 from hevlib.results import Judging, ParetoCounts, ParetoSummary, Selection, SourceSummary
 from hevlib.screen import SIM, apply_screening, screening_rules
@@ -124,11 +124,6 @@ def algo_names(algo: str) -> list[str]:
 
 # --------------------------------------------------------------------------- the sources compared
 JUDGED_OBJECT = "archive"
-#: What the one normalisation is built from (``hevlib.judging.judged_normalisation``).
-JUDGED_SCALE = (
-    "the judged scale: screen-passing designs of hev judge's reference set (a large Latin hypercube of admissible "
-    "designs, simulated; no source produced it)"
-)
 
 
 def source_summary(

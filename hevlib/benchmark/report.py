@@ -34,7 +34,7 @@ from hevlib.benchmark.scoring import (
 )
 from hevlib.indicators import CommonSamples, Normalisation, normalisation_dict
 from hevlib.io import read_table, write_json, write_table
-from hevlib.judging import judged_normalisation
+from hevlib.judging import JUDGED_SCALE, judged_normalisation
 
 
 def load_runs(cfg, runs_dir: Path) -> tuple[list[Run], dict[str, float]]:
@@ -148,8 +148,7 @@ def benchmark_report(cfg, runs_dir: Path, reference_path: Path, out_dir: Path, p
         "objectives, not thinned (the DOE counts for the surrogate-assisted sources)",
         "normalisation": {
             **normalisation_dict(norm),
-            "built_from": "screen-passing designs of data/judge/reference.parquet, the judged scale (`hev judge`: a "
-            "Latin hypercube of admissible designs no source produced; never given to a search)",
+            "built_from": JUDGED_SCALE,
         },
         "hv_reference": reference,
         "hypervolume": {
