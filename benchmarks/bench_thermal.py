@@ -29,11 +29,11 @@ def _run(n, n_steps, X, t_init):
     out = np.zeros((n, L.N_O))
     for i in prange(n):
         o = out[i]
-        k, temp, q = th_.start(40.0 + i % 30, X, t_init, 1.0, o, np.empty(th_.N_SCRATCH))
+        k, temp = th_.start(40.0 + i % 30, X, t_init, 1.0, o, np.empty(th_.N_SCRATCH))
         for t in range(n_steps):
             on = 1.0 if t % 7 < 4 else 0.0
             s = th_.ThermalStep(True, 1.2 * on, 2e4 * on, 250.0 * on, 0.01 * on, 0.05 * on, 0.01 * on, 10.0, 1.0)
-            th_.thermal_step(temp, k, q, X, s, o)
+            th_.thermal_step(temp, k, X, s, o)
             th_.check_light_off(temp, X, t + 1.0, o)
     return out
 

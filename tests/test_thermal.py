@@ -58,9 +58,7 @@ def test_catalyst_heats_with_exhaust_and_cools_without_it_as_a_lumped_capacity(c
     tau = k[T.N_MON] / (h_c * k[T.K_A_MONI])
     o = np.zeros(N_O)
     for _ in range(200):
-        T.thermal_step(
-            temp, k, np.zeros(T.N_NODES), c, T.ThermalStep(True, fuel, q_waste, w, 0.0, 0.0, 0.0, 0.0, 1.0), o
-        )
+        T.thermal_step(temp, k, c, T.ThermalStep(True, fuel, q_waste, w, 0.0, 0.0, 0.0, 0.0, 1.0), o)
     expected = t_gas - (t_gas - 20.0) * np.exp(-200.0 / tau)
     assert temp[T.N_MON] == pytest.approx(expected, rel=2e-3)
     assert 20.0 < temp[T.N_MON] < t_gas
@@ -71,7 +69,7 @@ def test_catalyst_heats_with_exhaust_and_cools_without_it_as_a_lumped_capacity(c
     temp = np.full(T.N_NODES, 20.0)
     temp[T.N_MON] = t0
     for _ in range(300):
-        T.thermal_step(temp, k, np.zeros(T.N_NODES), c, T.ThermalStep(False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0), o)
+        T.thermal_step(temp, k, c, T.ThermalStep(False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0), o)
     assert temp[T.N_MON] == pytest.approx(20.0 + (t0 - 20.0) * np.exp(-g * 300.0 / k[T.N_MON]), rel=2e-3)
 
 
@@ -85,7 +83,6 @@ def test_conversion_follows_the_table_and_breakthrough_caps_it(cfg, t_mon):
     tp = T.thermal_step(
         temp,
         k,
-        np.zeros(T.N_NODES),
         cfg._replace(cold_correction=False),
         T.ThermalStep(True, 1.0, 3e4, 300.0, *eo, 10.0, 1.0),
         np.zeros(N_O),

@@ -290,8 +290,8 @@ def _book_engine(o, fuel, hc, co, nox, p_shaft, lhv_j_per_g, dt):
 @njit(cache=True, inline="always")
 def _exhaust(o, nodes: th_.ThermalNodes, s: th_.ThermalStep, t, tr, record):
     """Thermal nodes and tailpipe emissions of step ``t`` (and their trace channels)."""
-    temp, k, q, X = nodes
-    tp_hc, tp_co, tp_nox = th_.thermal_step(temp, k, q, X, s, o)
+    temp, k, X = nodes
+    tp_hc, tp_co, tp_nox = th_.thermal_step(temp, k, X, s, o)
     th_.check_light_off(temp, X, (t + 1) * s.dt_s, o)
     if record:
         tr[t + 1, L.T_T_COOLANT] = temp[th_.N_BLOCK]
@@ -518,8 +518,8 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
     env = NO_ENVELOPE  # the last force-limited step's point on the full-power force envelope (limited_step_split)
     soc_lo, soc_hi = soc, soc
     n = v_ref.shape[0]
-    k_th, temp, q_th = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o, scratch)
-    nodes = th_.ThermalNodes(temp, k_th, q_th, X)
+    k_th, temp = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o, scratch)
+    nodes = th_.ThermalNodes(temp, k_th, X)
     dl = split.SplitDriveline(d, E, M, G)
     for t in range(n - 1):
         v0 = v
@@ -735,8 +735,8 @@ def _conventional_one(veh: ConventionalRec, i: int, cyc: KernelCycle, t_init, o,
     n = v_ref.shape[0]
     gear, g_1, g_2 = 0, 0, 0  # the gear held and those of the two steps before it (ADVISOR's downshift guard)
     clutch = conv.OPEN
-    k_th, temp, q_th = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o, scratch)
-    nodes = th_.ThermalNodes(temp, k_th, q_th, X)
+    k_th, temp = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o, scratch)
+    nodes = th_.ThermalNodes(temp, k_th, X)
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]

@@ -177,31 +177,27 @@ class ThermalNodes(NamedTuple):
 
     temp_c: np.ndarray  # node temperatures
     k: np.ndarray  # per-design constants (heat capacities, areas, sub-steps; K_* indices)
-    q_w: np.ndarray  # net heat into each node (scratch)
     cfg: ThermalConfig
 
 
-#: Length of the scratch row :func:`start` lays out: the per-design constants, the node temperatures and the
-#: net heat of each node.
-N_SCRATCH = N_K + 2 * N_NODES
+#: Length of the scratch row :func:`start` lays out: the per-design constants and the node temperatures.
+N_SCRATCH = N_K + N_NODES
 
 
 @njit(cache=True)
 def start(p_eng_kw: float, t: ThermalConfig, t_init_c: np.ndarray, dt: float, o: np.ndarray, scratch: np.ndarray):
-    """Per-design constants, the nodes' start temperatures and scratch space for :func:`thermal_step`, as views
-    ``(k, temp, q)`` of the caller's ``scratch`` row (:data:`N_SCRATCH` long, reused design after design: the
+    """Per-design constants and the nodes' start temperatures for :func:`thermal_step`, as views ``(k, temp)``
+    of the caller's ``scratch`` row (:data:`N_SCRATCH` long, reused design after design: the
     caller owns it for the whole drive); books the stored heat and the light-off at time 0."""
     k = scratch[:N_K]
-    temp = scratch[N_K : N_K + N_NODES]
-    q = scratch[N_K + N_NODES : N_SCRATCH]  # net heat into each node, W (reused every step)
+    temp = scratch[N_K:N_SCRATCH]
     fill_design_constants(k, p_eng_kw, t, dt, t.fuel_max_g_s * p_eng_kw / t.p_base_kw * (1.0 + t.afr))
     temp[:] = t_init_c
-    q[:] = 0.0
     o[L.O_U_THERMAL_START_J] = stored_heat(temp, k)
     o[L.O_T_LIGHT_OFF_S] = -1.0
     o[L.O_T_CAT_MAX_C] = temp[N_MON]
     check_light_off(temp, t, 0.0, o)
-    return k, temp, q
+    return k, temp
 
 
 @njit(cache=True)
@@ -359,10 +355,10 @@ def at_ambient(temp: np.ndarray, amb_c: float) -> bool:
 
 @njit(cache=True)
 def thermal_step(
-    temp: np.ndarray, k: np.ndarray, q: np.ndarray, t: ThermalConfig, s: ThermalStep, o: np.ndarray
+    temp: np.ndarray, k: np.ndarray, t: ThermalConfig, s: ThermalStep, o: np.ndarray
 ) -> tuple[float, float, float]:
     """Advance the nine nodes ``temp`` over the drive step ``s`` (:class:`ThermalStep`); return the tailpipe
-    (HC, CO, NOx) rates, g/s. ``q`` is scratch space (:func:`start`). Accumulates the heat terms ``O_Q_*`` of
+    (HC, CO, NOx) rates, g/s. Accumulates the heat terms ``O_Q_*`` of
     :mod:`hevlib.sim.powertrain.layout` in ``o``.
     """
     key_on, fuel_g_s, q_waste_w, w_e, eo_hc, eo_co, eo_nox, v_mps, dt = s
@@ -403,79 +399,93 @@ def thermal_step(
     h = dt / n_sub
     ax, a_hood = k[K_AX], t.a_hood_m2
     q_tail = q_rad = q_amb = 0.0
+    # the nodes' temperatures and net heats stay in registers through the sub-steps (the array is read and
+    # written once per drive step); each net heat sums its flows in the order the model lists them
+    tc, ti, tx, th = temp[N_CYL], temp[N_BLOCK], temp[N_EXT], temp[N_HOOD]
+    tm, tci, tcp, tcx, tman = temp[N_MON], temp[N_SHELL], temp[N_PIPE], temp[N_SHIELD], temp[N_MAN]
+    c_cyl, c_block, c_ext, c_hood = k[N_CYL], k[N_BLOCK], k[N_EXT], k[N_HOOD]
+    c_mon, c_shell, c_pipe, c_shield, c_man = k[N_MON], k[N_SHELL], k[N_PIPE], k[N_SHIELD], k[N_MAN]
+    a_man, a_pipe, a_shield = k[K_A_MAN], k[K_A_PIPE], k[K_A_SHIELD]
+    a_mon, a_monf, a_moni, a_int = k[K_A_MON], k[K_A_MONF], k[K_A_MONI], k[K_A_INT]
     for _ in range(n_sub):
-        tc, ti, tx, th = temp[N_CYL], temp[N_BLOCK], temp[N_EXT], temp[N_HOOD]
-        tm, tci, tcp, tcx, tman = temp[N_MON], temp[N_SHELL], temp[N_PIPE], temp[N_SHIELD], temp[N_MAN]
-        for i in range(N_NODES):
-            q[i] = 0.0
         # ---- engine: combustion heat, cylinder -> block -> exterior -> hood / ambient
-        q[N_CYL] += q_cyl
+        q_c = 0.0 + q_cyl
         f = t.g_c2i * (tc - ti)
-        q[N_CYL] -= f
-        q[N_BLOCK] += f
+        q_c -= f
+        q_i = 0.0 + f
         f = t.g_i2x * (ti - tx)
-        q[N_BLOCK] -= f
-        q[N_EXT] += f
+        q_i -= f
+        q_x = 0.0 + f
         f = (t.g_h2x + _h_air(th - tx, hb_x) * ax) * (tx - th) + _rad(t.eps_eng * ax, tx, th)
-        q[N_EXT] -= f
-        q[N_HOOD] += f
+        q_x -= f
+        q_h = 0.0 + f
         loss_x = _h_air(amb - tx, hb_x) * 0.5 * ax * (tx - amb) + _rad(t.eps_eng * 0.5 * ax, tx, amb)
         loss_h = _h_air(amb - th, hb_h) * a_hood * (th - amb) + _rad(t.eps_hood * a_hood, th, amb)
-        q[N_EXT] -= loss_x
-        q[N_HOOD] -= loss_h
+        q_x -= loss_x
+        q_h -= loss_h
         # ---- exhaust gas: manifold, inlet pipe, converter (monolith channels + exposed shell)
+        q_man = q_p = q_m = q_ci = q_cx = 0.0
         t_g = t_gas_in
         if flow > 0.0:
-            ua = min(h_gas * k[K_A_MAN], c_gas)
+            ua = min(h_gas * a_man, c_gas)
             f = _gas_exchange(ua, c_gas, tman, t_g)
-            q[N_MAN] -= f
+            q_man -= f
             t_g += f / c_gas
-            ua = min(h_gas * k[K_A_PIPE], c_gas)
+            ua = min(h_gas * a_pipe, c_gas)
             f = _gas_exchange(ua, c_gas, tcp, t_g)
-            q[N_PIPE] -= f
+            q_p -= f
             t_g += f / c_gas
-            a_cat = k[K_A_MONI] + k[K_A_INT] - k[K_A_MON]
+            a_cat = a_moni + a_int - a_mon
             h_c = min(h_gas, c_gas / a_cat)
-            f_m = h_c * k[K_A_MONI] * (tm - t_g)
-            f_i = h_c * (k[K_A_INT] - k[K_A_MON]) * (tci - t_g)
-            q[N_MON] -= f_m
-            q[N_SHELL] -= f_i
+            f_m = h_c * a_moni * (tm - t_g)
+            f_i = h_c * (a_int - a_mon) * (tci - t_g)
+            q_m -= f_m
+            q_ci -= f_i
             t_g += (f_m + f_i) / c_gas
-            q[N_MON] += q_exo
+            q_m += q_exo
         # ---- exhaust solids
-        f = _rad(t.eps_man * k[K_A_MAN], tman, tx) + _h_air(tx - tman, hb_e) * k[K_A_MAN] * (tman - tx)
-        q[N_MAN] -= f
-        q[N_EXT] += f
+        f = _rad(t.eps_man * a_man, tman, tx) + _h_air(tx - tman, hb_e) * a_man * (tman - tx)
+        q_man -= f
+        q_x += f
         f = interp1(tci, t.m2i_t_c, t.m2i_g) * (tci - tm)
-        q[N_SHELL] -= f
-        q[N_MON] += f
-        f = _rad(t.eps_m2p * k[K_A_MONF], tcp, tm)
-        q[N_PIPE] -= f
-        q[N_MON] += f
+        q_ci -= f
+        q_m += f
+        f = _rad(t.eps_m2p * a_monf, tcp, tm)
+        q_p -= f
+        q_m += f
         f = t.g_shell2pipe * (tcp - tci)
-        q[N_PIPE] -= f
-        q[N_SHELL] += f
-        f = t.g_shell2shield * (tcx - tci) + _rad(t.eps_i2x * k[K_A_INT], tcx, tci)
-        q[N_SHIELD] -= f
-        q[N_SHELL] += f
+        q_p -= f
+        q_ci += f
+        f = t.g_shell2shield * (tcx - tci) + _rad(t.eps_i2x * a_int, tcx, tci)
+        q_cx -= f
+        q_ci += f
         f = t.g_pipe2shield * (tcx - tcp)
-        q[N_SHIELD] -= f
-        q[N_PIPE] += f
-        loss_p = _rad(t.eps_pipe * k[K_A_PIPE], tcp, amb) + _h_air(amb - tcp, hb_e) * k[K_A_PIPE] * (tcp - amb)
-        loss_s = _rad(t.eps_shield * k[K_A_SHIELD], tcx, amb) + _h_air(amb - tcx, hb_e) * k[K_A_SHIELD] * (tcx - amb)
-        q[N_PIPE] -= loss_p
-        q[N_SHIELD] -= loss_s
+        q_cx -= f
+        q_p += f
+        loss_p = _rad(t.eps_pipe * a_pipe, tcp, amb) + _h_air(amb - tcp, hb_e) * a_pipe * (tcp - amb)
+        loss_s = _rad(t.eps_shield * a_shield, tcx, amb) + _h_air(amb - tcx, hb_e) * a_shield * (tcx - amb)
+        q_p -= loss_p
+        q_cx -= loss_s
         # ---- thermostat: with the key on, the radiator holds the block at t_stat (removes heat only)
         rad = 0.0
-        t_block = ti + h * q[N_BLOCK] / k[N_BLOCK]
-        if key_on and t_block > t.t_stat_c and q[N_BLOCK] > 0.0:
-            rad = min(q[N_BLOCK], (t_block - max(ti, t.t_stat_c)) * k[N_BLOCK] / h)
-            q[N_BLOCK] -= rad
-        for i in range(N_NODES):
-            temp[i] += h * q[i] / k[i]
+        t_block = ti + h * q_i / c_block
+        if key_on and t_block > t.t_stat_c and q_i > 0.0:
+            rad = min(q_i, (t_block - max(ti, t.t_stat_c)) * c_block / h)
+            q_i -= rad
+        tc += h * q_c / c_cyl
+        ti += h * q_i / c_block
+        tx += h * q_x / c_ext
+        th += h * q_h / c_hood
+        tm += h * q_m / c_mon
+        tci += h * q_ci / c_shell
+        tcp += h * q_p / c_pipe
+        tcx += h * q_cx / c_shield
+        tman += h * q_man / c_man
         q_tail += (c_gas * (t_g - amb) if flow > 0.0 else 0.0) * h
         q_rad += rad * h
         q_amb += (loss_x + loss_h + loss_p + loss_s) * h
+    temp[N_CYL], temp[N_BLOCK], temp[N_EXT], temp[N_HOOD] = tc, ti, tx, th
+    temp[N_MON], temp[N_SHELL], temp[N_PIPE], temp[N_SHIELD], temp[N_MAN] = tm, tci, tcp, tcx, tman
     o[L.O_Q_CYL_J] += q_cyl * dt
     o[L.O_Q_EXHAUST_J] += q_ex * dt
     o[L.O_Q_TAILPIPE_J] += q_tail
