@@ -29,9 +29,9 @@ CASES = ("udds_grade20", "udds_flat", "ftp")
 
 def _one(case: str, n: int, repeat: int) -> dict:
     """Time the drive kernel of the ``hevlib`` on ``sys.path`` on one case (run in a child process)."""
-    import time
+    import time  # noqa: I001  (hevlib first: it pins the numeric libraries before numpy loads)
 
-    import hevlib  # noqa: F401  (pins the numeric libraries before numpy loads)
+    import hevlib  # noqa: F401
     import numba
 
     sys.path.insert(0, str(ROOT / "benchmarks"))
