@@ -22,7 +22,7 @@ def _dynamics(sim: Simulator, x) -> CarrierDynamics:
     veh = sim.vehicle(np.array([x], float))
     k = veh.kernel
     return split.carrier_dynamics(
-        split_design(k.rows[0], k.c), k.G, k.c.j_start, k.c.j_gen, k.c.t_crank, k.c.w_fire, k.c.dt
+        split_design(k.rows[0], k.c, k.sc), k.G, k.sc.j_start, k.sc.j_gen, k.sc.t_crank, k.sc.w_fire, k.c.dt
     )
 
 
@@ -96,7 +96,7 @@ def test_the_engine_speed_never_moves_faster_than_the_generator_can_turn_the_car
 def test_the_rate_window_cuts_the_engine_speeds_and_retakes_the_most_power(sim):
     veh = sim.vehicle(np.array([SLOW], float))
     kv = veh.kernel
-    d = split_design(kv.rows[0], kv.c)
+    d = split_design(kv.rows[0], kv.c, kv.sc)
     lim = split.limits(10.0, d, kv.E, kv.M, kv.G)
     cut = split.within_rate(lim, lim.lo + 20.0, 10.0, 0.5, d, kv.E, kv.G)
     assert (cut.lo, cut.hi) == pytest.approx((lim.lo + 10.0, lim.lo + 30.0))

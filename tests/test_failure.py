@@ -65,7 +65,7 @@ def test_engine_min_speed_is_the_maps_lowest_and_lets_k_433_run_at_standstill(si
     assert ps.engine_min_on_speed_rad_s == pytest.approx(lib.engine_hybrid.speed_rad_s[0])
     assert ps.engine_min_on_speed_rad_s == pytest.approx(1000 * np.pi / 30)
     veh = sim.vehicle(STALLS[None, :]).kernel
-    d = split_design(veh.rows[0], veh.c)
+    d = split_design(veh.rows[0], veh.c, veh.sc)
     lo, hi = split.engine_window(0.0, d)
     assert lo <= hi  # 5500 rpm / (1 + 78/18) = 1031 rpm >= 1000 rpm
 
@@ -253,7 +253,7 @@ def test_spun_engine_is_motored_with_its_fuel_cut(sim, cycles):
     assert spun.sum() > 10
     assert (tr.loc[spun, "fuel_g_s"] == 0).all()
     assert (tr.loc[spun, "t_eng_nm"] < 0).all()
-    w_g_max = sim.library.configs["prius"].w_g_max
+    w_g_max = sim.library.split.w_g_max
     assert (tr.loc[spun, "w_gen_rad_s"].abs() <= w_g_max * (1 + 1e-9)).all()
     braking = (tr["f_pt_n"] < -1e-6) | (tr["f_brake_n"] < -1e-6)
     assert braking.sum() > 10 and (braking & (tr["eng_on"] == 1)).sum() == 0  # never fired while braking
@@ -291,7 +291,7 @@ def test_rotor_inertias_reflect_through_the_gear_set(sim, lib):
         + lib.wheel_prius.inertia_kg_m2 / r**2
         + (row[1] * lib.motor.inertia_kg_m2 + k**2 * row[2] * lib.generator.inertia_kg_m2) * (i0 / r) ** 2
     )
-    assert split_equivalent_mass_kg(row, cfg) == pytest.approx(expected)
+    assert split_equivalent_mass_kg(row, cfg, veh.sc) == pytest.approx(expected)
     assert 1.04 < expected / 1404 < 1.07  # the old constant 1.05 was about right for the Prius
     # the conventional car: the engine reflects through the gear in use (about +20 % in first)
     cc, conv = sim.library.configs["conventional"], sim.library.gearbox

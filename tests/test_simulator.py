@@ -365,11 +365,11 @@ def test_force_limited_step_converges_from_the_envelope_and_without_it(sim):
     veh = sim.vehicle(pd.DataFrame([dict(zip(DESIGN_VARS, [25, 20, 5, 4.5, 10, 78, 30], strict=True))])).kernel
     row = veh.rows[0]
     assert row.shape == (N_R,)
-    c, E, M, G = veh.c, veh.E, veh.M, veh.G
-    d = split_design(row, c)
+    c, sc, E, M, G = veh.c, veh.sc, veh.E, veh.M, veh.G
+    d = split_design(row, c, sc)
     dl = split.SplitDriveline(d, E, M, G)
-    ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c), c)
-    p_dis, p_chg = pack_limits(0.6, row[R_N_BAT], c, veh.B)
+    ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c, sc), c)
+    p_dis, p_chg = pack_limits(0.6, row[R_N_BAT], sc, veh.B, c.dt)
     sn, cs = np.sin(np.arctan(0.2)), np.cos(np.arctan(0.2))
     f_cmd = 1e5  # far beyond what the driveline gives: every step is force-limited
 
@@ -497,7 +497,7 @@ def test_performance_limits(sim, cycles, designs, lib, params):
     a_adh = params.sim.adhesion_coefficient * body.gravity_m_s2 * body.front_weight_fraction
     # tyres, not the driveline, cap it: the adhesion force accelerates the equivalent (rotating) mass
     veh = sim.vehicle(designs).kernel
-    m_ratio = np.array([row[R_MASS] / split_equivalent_mass_kg(row, veh.c) for row in veh.rows])
+    m_ratio = np.array([row[R_MASS] / split_equivalent_mass_kg(row, veh.c, veh.sc) for row in veh.rows])
     assert (m_ratio < 1.0).all()
     assert (r["f_max"] <= a_adh * m_ratio + 1e-6).all()
     assert (r["f_max"] > 0).all()

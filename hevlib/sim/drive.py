@@ -48,7 +48,7 @@ class BatteryArrays(NamedTuple):
 
 
 class DriveConfig(NamedTuple):
-    """Scalars shared by every design of a batch (chassis, limits, battery, controller)."""
+    """Scalars every design of a batch shares, for either car: chassis, road, brakes, fuel, the step."""
 
     dt: float
     mu: float
@@ -61,16 +61,25 @@ class DriveConfig(NamedTuple):
     axle_per_kg_nm: float
     h_over_l: float
     f_front: float
+    brake_v_mps: np.ndarray  # braking split of the wheel file: speed axis ...
+    brake_share: np.ndarray  # ... and the share of braking the driveline may take (regeneration)
+    lhv_j_per_g: float
+    j_wheel: float  # all wheels, tyres and axles, kg m^2
+    j_eng: float  # base-map rotor inertia (scaled with each design's power), kg m^2
+    off_trace_mps: float  # speed error above which a step counts as off the trace (speed_dev)
+
+
+class SplitConfig(NamedTuple):
+    """Scalars of the power split alone, shared by every design of a batch: gear set, machines, pack,
+    controller window, electrical accessories, engine start (the conventional car has none of them)."""
+
     soc_init: float
     soc_min: float
     soc_max: float
     eta_pg: float
     eta_fd: float
     i_max_a: float
-    brake_v_mps: np.ndarray  # braking split of the wheel file: speed axis ...
-    brake_share: np.ndarray  # ... and the share of braking the driveline may take (regeneration)
-    p_acc_w: float  # hybrid: electrical; conventional: mechanical
-    lhv_j_per_g: float
+    p_acc_w: float  # electrical accessory load, W
     w_e_min: float
     w_e_max: float
     w_m_max: float
@@ -79,14 +88,9 @@ class DriveConfig(NamedTuple):
     eta_c: float
     v_min_mod: float
     v_max_mod: float
-    w_idle: float
-    w_launch: float
-    j_wheel: float  # all wheels, tyres and axles, kg m^2
-    j_eng: float  # base-map rotor inertias (scaled with each design's power), kg m^2
-    j_mot: float
+    j_mot: float  # base-map rotor inertias (scaled with each design's power), kg m^2
     j_gen: float
-    off_trace_mps: float  # speed error above which a step counts as off the trace (speed_dev)
-    engine_dynamics: bool  # power split: carrier speed as a state (starts, crank work, rate bound, inertia)
+    engine_dynamics: bool  # carrier speed as a state (starts, crank work, rate bound, inertia)
     j_start: float  # the engine's start-up effective inertia (base engine), kg m^2
     t_crank: float  # its crank torque (base engine), N m
     w_fire: float  # firing speed: fuel flows from here up, rad/s
@@ -98,6 +102,7 @@ class HybridRec(NamedTuple):
 
     rows: np.ndarray  # (n, N_R) per-design rows, R_* columns
     c: DriveConfig
+    sc: SplitConfig
     th: np.ndarray  # fuzzy thresholds of the rule base (hevlib.sim.control.thresholds)
     pc: PmsConfig
     E: EngineArrays
@@ -177,7 +182,7 @@ def chassis(m: float, m_eff: float, c: DriveConfig) -> Chassis:
 
 
 @njit(cache=True, inline="always")
-def split_equivalent_mass_kg(row: np.ndarray, c: DriveConfig) -> float:
+def split_equivalent_mass_kg(row: np.ndarray, c: DriveConfig, sc: SplitConfig) -> float:
     """Test mass plus the rotating inertias the power-split car accelerates with the vehicle.
 
     Wheels ``J_wh / r^2``; motor on the ring ``J_m (i0 / r)^2``; generator on the sun, which at a held
@@ -189,7 +194,7 @@ def split_equivalent_mass_kg(row: np.ndarray, c: DriveConfig) -> float:
     """
     k = row[R_N_R] / row[R_N_S]
     g2 = (row[R_I0] / c.r) ** 2
-    return row[R_MASS] + c.j_wheel / (c.r * c.r) + (row[R_S_MOT] * c.j_mot + k * k * row[R_S_GEN] * c.j_gen) * g2
+    return row[R_MASS] + c.j_wheel / (c.r * c.r) + (row[R_S_MOT] * sc.j_mot + k * k * row[R_S_GEN] * sc.j_gen) * g2
 
 
 @njit(cache=True, inline="always")
@@ -209,7 +214,7 @@ def driveline_brake_share(v: float, c: DriveConfig) -> float:
 
 
 @njit(cache=True, inline="always")
-def split_design(row: np.ndarray, c: DriveConfig) -> split.SplitDesign:
+def split_design(row: np.ndarray, c: DriveConfig, sc: SplitConfig) -> split.SplitDesign:
     return split.SplitDesign(
         row[R_S_ENG],
         row[R_S_MOT],
@@ -218,13 +223,13 @@ def split_design(row: np.ndarray, c: DriveConfig) -> split.SplitDesign:
         row[R_N_R],
         row[R_N_S],
         c.r,
-        c.w_e_min,
-        c.w_e_max,
-        c.w_m_max,
-        c.w_g_max,
-        c.eta_pg,
-        c.eta_fd,
-        c.p_acc_w,
+        sc.w_e_min,
+        sc.w_e_max,
+        sc.w_m_max,
+        sc.w_g_max,
+        sc.eta_pg,
+        sc.eta_fd,
+        sc.p_acc_w,
     )
 
 
@@ -247,26 +252,28 @@ def pack_state(soc: float, n_bat: float, B: BatteryArrays) -> tuple[float, float
 
 
 @njit(cache=True, inline="always")
-def pack_power_limits(ocv: float, r_d: float, r_c: float, soc: float, soc_floor: float, n_bat: float, c: DriveConfig):
-    """(max discharge, max charge) terminal power of the pack in state (``ocv``, ``r_d``, ``r_c``) at ``soc``, W,
-    discharging down to ``soc_floor`` (the controller's window: ``c.soc_min``)."""
+def pack_power_limits(
+    ocv: float, r_d: float, r_c: float, soc: float, soc_floor: float, n_bat: float, sc: SplitConfig, dt: float
+):
+    """(max discharge, max charge) terminal power of the pack in state (``ocv``, ``r_d``, ``r_c``) at ``soc`` over a
+    step ``dt``, W, discharging down to ``soc_floor`` (the controller's window: ``sc.soc_min``)."""
     lim = PackLimits(
-        in_series(c.v_min_mod, n_bat),
-        in_series(c.v_max_mod, n_bat),
-        c.i_max_a,
+        in_series(sc.v_min_mod, n_bat),
+        in_series(sc.v_max_mod, n_bat),
+        sc.i_max_a,
         soc_floor,
-        c.soc_max,
-        c.cap_as,
-        c.eta_c,
-        c.dt,
+        sc.soc_max,
+        sc.cap_as,
+        sc.eta_c,
+        dt,
     )
     return power_limits(ocv, r_d, r_c, soc, lim)
 
 
 @njit(cache=True, inline="always")
-def pack_limits(soc: float, n_bat: float, c: DriveConfig, B: BatteryArrays) -> tuple[float, float]:
+def pack_limits(soc: float, n_bat: float, sc: SplitConfig, B: BatteryArrays, dt: float) -> tuple[float, float]:
     ocv, r_d, r_c = pack_state(soc, n_bat, B)
-    return pack_power_limits(ocv, r_d, r_c, soc, c.soc_min, n_bat, c)
+    return pack_power_limits(ocv, r_d, r_c, soc, sc.soc_min, n_bat, sc, dt)
 
 
 @njit(cache=True, inline="always")
@@ -502,18 +509,19 @@ def limited_step_conv(v0, v_req, v_cap, cmd: ConvCommand, road: StepRoad, st, ch
 def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
     # everything below reads the caller's arrays through views that are not reference-counted (borrow.py)
     veh, cyc, t_init, o, tr, scratch = borrowed((veh, cyc, t_init, o, tr, scratch))
-    row, c, th, pc, E, M, G, B, X = veh.rows[i], veh.c, veh.th, veh.pc, veh.E, veh.M, veh.G, veh.B, veh.X
+    row, c, sc, th, pc = veh.rows[i], veh.c, veh.sc, veh.th, veh.pc
+    E, M, G, B, X = veh.E, veh.M, veh.G, veh.B, veh.X
     v_ref, grade, sin_g, cos_g, key_on = cyc
-    d = split_design(row, c)
-    ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c), c)
+    d = split_design(row, c, sc)
+    ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c, sc), c)
     n_bat = row[R_N_BAT]
-    cap = c.cap_as
+    cap = sc.cap_as
     dt = c.dt
     k = d.n_r / d.n_s
     v_lim = split_speed_limit(d)
     soc, v = row[R_SOC0], 0.0
     eng_on, t_state = OFF, 1e9
-    cdyn = split.carrier_dynamics(d, G, c.j_start, c.j_gen, c.t_crank, c.w_fire, dt)
+    cdyn = split.carrier_dynamics(d, G, sc.j_start, sc.j_gen, sc.t_crank, sc.w_fire, dt)
     w_c, was_running = 0.0, False  # carrier speed at the end of the last step; the engine fired then
     env = NO_ENVELOPE  # the last force-limited step's point on the full-power force envelope (limited_step_split)
     soc_lo, soc_hi = soc, soc
@@ -528,7 +536,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
         v_ref_next = v_ref[t + 1]
         v_tgt = min(v_ref_next, v_lim)
         ocv, r_d, r_c = pack_state(soc, n_bat, B)
-        p_dis, p_chg = pack_power_limits(ocv, r_d, r_c, soc, c.soc_min, n_bat, c)
+        p_dis, p_chg = pack_power_limits(ocv, r_d, r_c, soc, sc.soc_min, n_bat, sc, dt)
         stationary = v0 <= 1e-9 and v_tgt <= 1e-9
         if stationary and not key_on[t]:
             # prescribed key-off (e.g. the FTP soak): nothing runs, no accessory load
@@ -549,7 +557,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
         f_cmd = min(f_req, f_adh) if f_req >= 0.0 else max(f_req, -f_adh)
         regen = driveline_brake_share(v_req, c)
         lim = split.limits(v_req, d, E, M, G)
-        dynamics = c.engine_dynamics
+        dynamics = sc.engine_dynamics
         w_from, dw = w_c, np.inf  # the carrier's reach this step (engine dynamics)
         j_dt = cdyn.j / dt if dynamics else 0.0
         if dynamics and was_running:
@@ -569,7 +577,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
                 t_gs = cdyn.t_spin / (1.0 + k)
                 w_gs = sun_speed(0.5 * (w_c + cdyn.w_fire), lim.w_r, d.n_r, d.n_s)
                 p_start = (e_start + (electric_power(t_gs, w_gs, d.s_gen, G) - t_gs * w_gs) * t_su) / dt
-            if e_start == np.inf or p_start > pack_power_limits(ocv, r_d, r_c, soc, 0.0, n_bat, c)[0]:
+            if e_start == np.inf or p_start > pack_power_limits(ocv, r_d, r_c, soc, 0.0, n_bat, sc, dt)[0]:
                 # the generator cannot overcome the crank torque, or the pack (its voltage and current, not the
                 # controller's SOC window: the engine pays the crank energy back within the step) cannot crank
                 want, p_target, e_start, t_su, p_start = False, 0.0, 0.0, 0.0, 0.0
@@ -624,7 +632,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
         p_batt = st.p_batt + p_start
         # ---- battery
         i_a = current_for_power(p_batt, ocv, r_d, r_c)
-        q = i_a * dt if i_a >= 0.0 else c.eta_c * i_a * dt
+        q = i_a * dt if i_a >= 0.0 else sc.eta_c * i_a * dt
         soc -= q / cap
         p_chem = ocv * q / dt
         # ---- engine, its heat and the exhaust; energy accounting (J)
@@ -661,7 +669,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
             bad += 1.0
         if _over(st.w_r, d.w_m_max) or _over(abs(st.t_m), torque_limit(st.w_r, d.s_mot, M)):
             bad += 1.0
-        if soc < c.soc_min - 1e-9 or soc > c.soc_max + 1e-9:
+        if soc < sc.soc_min - 1e-9 or soc > sc.soc_max + 1e-9:
             bad += 1.0
         o[L.O_LIMIT_VIOLATIONS] += bad
         if record:

@@ -92,10 +92,10 @@ def _flat_impl(veh, i):
     if _is(veh, HybridRec):
 
         def hybrid(veh, i):
-            row, c = veh.rows[i], veh.c
-            d = split_design(row, c)
-            ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c), c)
-            p_dis, p_chg = pack_limits(c.soc_init, row[R_N_BAT], c, veh.B)
+            row, c, sc = veh.rows[i], veh.c, veh.sc
+            d = split_design(row, c, sc)
+            ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c, sc), c)
+            p_dis, p_chg = pack_limits(sc.soc_init, row[R_N_BAT], sc, veh.B, c.dt)
             return HybridFlat(ch, p_dis, p_chg, split.SplitDriveline(d, veh.E, veh.M, veh.G), split_speed_limit(d))
 
         return hybrid

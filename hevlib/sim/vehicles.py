@@ -39,6 +39,7 @@ from hevlib.sim.drive import (
     ConventionalRec,
     DriveConfig,
     HybridRec,
+    SplitConfig,
 )
 from hevlib.sim.powertrain.conventional import ConvDesign, ShiftLogic
 from hevlib.sim.powertrain.engine import EngineArrays
@@ -169,10 +170,10 @@ def battery_arrays(module) -> BatteryArrays:
     )
 
 
-def drive_config(lib: ComponentLibrary, params: Params, body, wheel, p_acc_w: float, engine: EngineMap) -> DriveConfig:
-    """The scalars every design of a batch shares: chassis, limits, pack, controller (one-second step)."""
+def drive_config(lib: ComponentLibrary, params: Params, body, wheel, engine: EngineMap) -> DriveConfig:
+    """The scalars every design of a batch shares, for either car: chassis, road, brakes, fuel (one-second
+    step)."""
     sim = params.sim
-    ps, bat = lib.power_split, lib.battery
     return DriveConfig(
         dt=1.0,
         mu=sim.adhesion_coefficient,
@@ -185,16 +186,28 @@ def drive_config(lib: ComponentLibrary, params: Params, body, wheel, p_acc_w: fl
         axle_per_kg_nm=wheel.axle_drag_nm_per_kg,
         h_over_l=body.cg_height_m / body.wheelbase_m,
         f_front=body.front_weight_fraction,
+        brake_v_mps=np.ascontiguousarray(wheel.brake_speed_mps, float),
+        brake_share=np.ascontiguousarray(wheel.brake_driveline_share, float),
+        lhv_j_per_g=engine.lhv_j_per_g,
+        j_wheel=wheel.inertia_kg_m2,
+        j_eng=engine.inertia_kg_m2,
+        off_trace_mps=sim.cycle_met_tolerance_kmh / 3.6,
+    )
+
+
+def split_config(lib: ComponentLibrary, params: Params) -> SplitConfig:
+    """The power split's scalars every design of a batch shares: gear set, machines, pack, controller window,
+    electrical accessories, engine start."""
+    sim = params.sim
+    ps, bat = lib.power_split, lib.battery
+    return SplitConfig(
         soc_init=sim.soc_init,
         soc_min=sim.soc_min,
         soc_max=sim.soc_max,
         eta_pg=sim.planetary_efficiency,
         eta_fd=sim.final_drive_efficiency,
         i_max_a=sim.pack_current_max_a,
-        brake_v_mps=np.ascontiguousarray(wheel.brake_speed_mps, float),
-        brake_share=np.ascontiguousarray(wheel.brake_driveline_share, float),
-        p_acc_w=float(p_acc_w),
-        lhv_j_per_g=lib.engine_hybrid.lhv_j_per_g,
+        p_acc_w=float(lib.accessory_hybrid.electrical_w),
         w_e_min=ps.engine_min_on_speed_rad_s,
         w_e_max=min(ps.engine_max_speed_rad_s, lib.engine_hybrid.max_speed_rad_s),
         w_m_max=min(ps.motor_max_speed_rad_s, lib.motor.max_speed_rad_s),
@@ -203,13 +216,8 @@ def drive_config(lib: ComponentLibrary, params: Params, body, wheel, p_acc_w: fl
         eta_c=bat.coulombic_efficiency,
         v_min_mod=bat.v_min,
         v_max_mod=bat.v_max,
-        w_idle=lib.conventional_idle_rad_s,
-        w_launch=lib.conventional_launch_rad_s,
-        j_wheel=wheel.inertia_kg_m2,
-        j_eng=engine.inertia_kg_m2,
         j_mot=lib.motor.inertia_kg_m2,
         j_gen=lib.generator.inertia_kg_m2,
-        off_trace_mps=sim.cycle_met_tolerance_kmh / 3.6,
         engine_dynamics=bool(params.pms.engine_dynamics),
         j_start=ps.engine_startup_inertia_kg_m2,
         t_crank=ps.engine_crank_torque_nm,
@@ -233,7 +241,8 @@ class KernelLibrary:
     pack: BatteryArrays
     thresholds: np.ndarray  #: the fuzzy rule base's thresholds
     pms: PmsConfig
-    configs: Mapping[str, DriveConfig]  #: per kind: body, wheels, accessories, limits
+    configs: Mapping[str, DriveConfig]  #: per kind: body, wheels, brakes, fuel
+    split: SplitConfig  #: the power split's gear set, machines, pack and engine start (both hybrid kinds)
     thermal: Mapping[str, ThermalConfig]  #: per kind: engine and catalyst thermal data
     gearbox: ConvDesign  #: the conventional car's engine scale, wheel, idle, launch and gearbox losses
     ratios: np.ndarray  #: its overall gear ratios ...
@@ -243,19 +252,11 @@ class KernelLibrary:
     def build(cls, lib: ComponentLibrary, params: Params) -> KernelLibrary:
         sim, base, pms = params.sim, params.baseline, params.pms
         e_h, e_c = engine_arrays(lib.engine_hybrid), engine_arrays(lib.engine_conventional)
-        acc_h = lib.accessory_hybrid.electrical_w
         configs = {
-            "hybrid": drive_config(
-                lib, params, lib.body_conventional, lib.wheel_conventional, acc_h, lib.engine_hybrid
-            ),
-            "prius": drive_config(lib, params, lib.body_prius, lib.wheel_prius, acc_h, lib.engine_hybrid),
+            "hybrid": drive_config(lib, params, lib.body_conventional, lib.wheel_conventional, lib.engine_hybrid),
+            "prius": drive_config(lib, params, lib.body_prius, lib.wheel_prius, lib.engine_hybrid),
             "conventional": drive_config(
-                lib,
-                params,
-                lib.body_conventional,
-                lib.wheel_conventional,
-                lib.accessory_conventional.mechanical_w,
-                lib.engine_conventional,
+                lib, params, lib.body_conventional, lib.wheel_conventional, lib.engine_conventional
             ),
         }
         amb, cold = sim.ambient_c, sim.cold_correction == "advisor"
@@ -322,6 +323,7 @@ class KernelLibrary:
                 pms.full_power_above_kw * 1e3 if pms.full_power_above_kw is not None else np.inf,
             ),
             configs=configs,
+            split=split_config(lib, params),
             thermal=thermal,
             gearbox=gearbox,
             ratios=np.ascontiguousarray(base.conventional.gear_ratios, float),
@@ -417,7 +419,7 @@ class Vehicle:
             kernel = ConventionalRec(rows, c, E, library.ratios, library.shift, library.gearbox, th)
         else:
             M, G, B = library.motor, library.generator, library.pack
-            kernel = HybridRec(rows, c, library.thresholds, library.pms, E, M, G, B, th)
+            kernel = HybridRec(rows, c, library.split, library.thresholds, library.pms, E, M, G, B, th)
         return cls(kind, pd.DataFrame(X, columns=list(DESIGN_VARS)), kernel, library)
 
     def with_soc_init(self, soc: np.ndarray | float) -> Vehicle:
