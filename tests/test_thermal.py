@@ -173,6 +173,26 @@ def test_cold_ftp_lights_off_cools_in_the_soak_and_restarts_warm(sim, cycles):
         assert tr["hc_tailpipe_g_s"].to_numpy()[bag3].sum() < 0.5 * tr["hc_tailpipe_g_s"].to_numpy()[bag1].sum()
 
 
+def test_the_thermal_start_is_an_argument_of_the_drive(sim, cycles):
+    """``simulate`` takes its thermal start: the params' by default (the same bits as passing it), a named
+    state, or the nine node temperatures; a hot FTP burns less fuel and lights off sooner than the cold one."""
+    ftp = cycles["ftp"]
+    cold = sim.run_raw(None, ftp, "prius", performance=False).out
+    nodes = sim.library.start_temperatures("ftp", "prius")
+    assert np.array_equal(sim.run_raw(None, ftp, "prius", performance=False, thermal_start=nodes).out, cold)
+    assert np.array_equal(sim.run_raw(None, ftp, "prius", performance=False, thermal_start="cold").out, cold)
+    hot = sim.run_raw(None, ftp, "prius", performance=False, thermal_start="hot").frame().iloc[0]
+    first = sim.run_raw(None, ftp, "prius", performance=False).frame().iloc[0]
+    assert hot["t_cat_light_off_s"] == 0.0 < first["t_cat_light_off_s"]
+    assert hot["e_fuel_j"] < first["e_fuel_j"]
+    warm = nodes + 40.0  # any start: every node 40 K above ambient lies between the two
+    mid = sim.run_raw(None, ftp, "prius", performance=False, thermal_start=warm).frame().iloc[0]
+    assert hot["e_fuel_j"] < mid["e_fuel_j"] < first["e_fuel_j"]
+    for bad in (nodes[:8], np.r_[nodes[:8], np.nan], "warm"):
+        with pytest.raises(ValueError, match="thermal start"):
+            sim.run_raw(None, ftp, "prius", performance=False, thermal_start=bad)
+
+
 def test_a_hybrids_catalyst_cools_while_its_engine_is_off(sim, cycles):
     tr = sim.trace(np.array([PRIUS], float), cycles["ftp"])
     on = tr["eng_on"].to_numpy() > 0

@@ -43,7 +43,7 @@ from hevlib.sim.powertrain.layout import (
     THERMAL_SOURCES,
     TRACE_NAMES,
 )
-from hevlib.sim.powertrain.thermal import cold_factors
+from hevlib.sim.powertrain.thermal import N_NODES, cold_factors, start_temperatures
 from hevlib.sim.vehicles import LIGHT_OFF_HC_CONVERSION, VEHICLES, KernelLibrary, Kind, Vehicle
 
 #: Designs that drive less than this share of the cycle get their per-km figures on this distance
@@ -67,16 +67,41 @@ class RunOutput:
         return pd.DataFrame(self.out, columns=list(OUT_NAMES))
 
 
-def simulate(vehicle: Vehicle, cycle: Cycle, *, record: bool = False, performance: bool = True) -> RunOutput:
-    """Drive every vehicle of the batch over ``cycle`` from the thermal start the params give that cycle
-    (``sim.start``) and run the flat-road performance tests (NaN unless ``performance``); traces of every
-    vehicle if ``record``. Pure: the same inputs give the same output, bit for bit."""
+def thermal_start_c(vehicle: Vehicle, cycle: Cycle, thermal_start: str | np.ndarray | None = None) -> np.ndarray:
+    """The nine thermal nodes' start temperatures (degC) of ``vehicle`` on ``cycle``: ``None``, the start the
+    params give that cycle (``sim.start``); ``"cold"`` (every node at ambient) or ``"hot"`` (ADVISOR's
+    preconditioned engine); or the temperatures themselves, in :data:`~hevlib.sim.powertrain.thermal.NODE_NAMES`
+    order."""
+    lib = vehicle.library
+    if thermal_start is None:
+        return lib.start_temperatures(cycle.name, vehicle.kind)
+    if isinstance(thermal_start, str):
+        return start_temperatures(thermal_start, lib.params.sim.ambient_c, lib.thermal[vehicle.kind].t_stat_c)
+    t = np.array(thermal_start, dtype=float)
+    if t.shape != (N_NODES,) or not np.isfinite(t).all() or (t < -273.15).any():
+        raise ValueError(f"thermal start: {N_NODES} finite node temperatures in degC expected, got {thermal_start!r}")
+    return t
+
+
+def simulate(
+    vehicle: Vehicle,
+    cycle: Cycle,
+    *,
+    thermal_start: str | np.ndarray | None = None,
+    record: bool = False,
+    performance: bool = True,
+) -> RunOutput:
+    """Drive every vehicle of the batch over ``cycle`` and run the flat-road performance tests (NaN unless
+    ``performance``); traces of every vehicle if ``record``. The settings are the vehicle's (its record, built
+    from the params: chassis, limits, controller, step); the thermal start is ``thermal_start``
+    (:func:`thermal_start_c`: the params' start for the cycle unless given). Pure: the same inputs give the same
+    output, bit for bit."""
     veh = vehicle.with_step(cycle.dt_s)
     n = veh.n
     out = np.zeros((n, N_O))
     traces = np.zeros((n if record else 1, cycle.n_steps, N_T))
     rec = np.arange(n) if record else np.full(n, -1)
-    t_init = veh.library.start_temperatures(cycle.name, veh.kind)
+    t_init = thermal_start_c(veh, cycle, thermal_start)
     kernel = drive_conventional if veh.kind == "conventional" else drive_hybrid
     in_parallel(kernel, n, veh.kernel, cycle.to_kernel(), t_init, out, traces, rec)
     perf = performance_tests(vehicle) if performance else np.full((n, 3), np.nan)
@@ -369,9 +394,12 @@ class Simulator:
         *,
         record: bool = False,
         performance: bool = True,
+        thermal_start: str | np.ndarray | None = None,
     ) -> RunOutput:
-        """Kernel outputs for one batch (all designs of ``X``; traces for all if ``record``)."""
-        return simulate(self.vehicle(X, vehicle), cycle, record=record, performance=performance)
+        """Kernel outputs for one batch (all designs of ``X``; traces for all if ``record``), from the params'
+        thermal start for the cycle unless ``thermal_start`` (:func:`thermal_start_c`) says otherwise."""
+        veh = self.vehicle(X, vehicle)
+        return simulate(veh, cycle, thermal_start=thermal_start, record=record, performance=performance)
 
     def run(
         self,
