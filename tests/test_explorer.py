@@ -150,7 +150,8 @@ def test_dvc_plots_show_draws_its_charts_offline(tmp_path):
     try:
         driver.get((tmp_path / "plots" / "index.html").as_uri())
         drawn = "[...document.querySelectorAll('.vega-embed')].filter(e => e.querySelector('svg, canvas')).length"
-        assert wait_for(driver, drawn) == 2
+        # both charts: wait for the count itself (a truthy 1 while the second chart still renders is not done)
+        assert wait_for(driver, f"({drawn}) >= 2") and driver.execute_script(f"return {drawn}") == 2
         fetched = driver.execute_script(
             "return performance.getEntriesByType('resource').map(e => e.name).filter(n => !n.startsWith('file:'))"
         )
