@@ -43,7 +43,7 @@ def _one(n: int, repeat: int) -> dict:
     sim.run(X[:1], udds)  # compile (or load the numba cache)
     warmup_s = time.perf_counter() - t0
     out = {"n_designs": n, "threads": numba.get_num_threads(), "warmup_s": warmup_s}
-    for label, cyc in (("udds_grade20", udds), ("udds_flat", udds.with_grade(0.0)), ("ftp", cycles["ftp"])):
+    for label, cyc in cases(cycles).items():
         drive, full = [], []
         for _ in range(repeat):
             t0 = time.perf_counter()
@@ -65,6 +65,16 @@ def _one(n: int, repeat: int) -> dict:
     out["peak_rss_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     out["design_steps"] = int(n * udds.n_steps)
     return out
+
+
+#: The simulator benchmarks' cases: UDDS at the sizing grade, flat UDDS, FTP (cold, key-off soak).
+CASES = ("udds_grade20", "udds_flat", "ftp")
+
+
+def cases(cycles: dict) -> dict:
+    """The :data:`CASES` by label."""
+    udds = cycles["udds"]
+    return dict(zip(CASES, (udds, udds.with_grade(0.0), cycles["ftp"]), strict=True))
 
 
 def _setup(params_path: Path = ROOT / "params.yaml", **sim_update):

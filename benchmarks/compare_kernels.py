@@ -23,8 +23,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+from bench_simulator import CASES  # this folder (the script's own) is on sys.path
+
 ROOT = Path(__file__).resolve().parents[1]
-CASES = ("udds_grade20", "udds_flat", "ftp")
 
 
 def _one(case: str, n: int, repeat: int) -> dict:
@@ -35,14 +36,13 @@ def _one(case: str, n: int, repeat: int) -> dict:
     import numba
 
     sys.path.insert(0, str(ROOT / "benchmarks"))
-    from bench_simulator import _setup  # noqa: E402
+    from bench_simulator import _setup, cases  # noqa: E402
 
     from hevlib.doe import lhs_designs
 
     numba.set_num_threads(1)
     sim, cycles = _setup(Path.cwd() / "params.yaml")
-    udds = cycles["udds"]
-    cycle = {"udds_grade20": udds, "udds_flat": udds.with_grade(0.0), "ftp": cycles["ftp"]}[case]
+    cycle = cases(cycles)[case]
     X = lhs_designs(sim.params.design_space.space(), n, seed=2026)
     sim.run_raw(X[:2], cycle, performance=False)  # compile or load the cache
     best, out = float("inf"), None

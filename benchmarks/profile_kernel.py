@@ -22,8 +22,9 @@ import sys
 import tempfile
 from pathlib import Path
 
+from bench_simulator import CASES  # this folder (the script's own) is on sys.path
+
 ROOT = Path(__file__).resolve().parents[1]
-CASES = ("udds_grade20", "udds_flat", "ftp")
 
 
 def _child(case: str, n: int) -> None:
@@ -32,15 +33,14 @@ def _child(case: str, n: int) -> None:
 
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import numba
-    from bench_simulator import _setup
+    from bench_simulator import _setup, cases
 
     from hevlib.doe import lhs_designs
     from hevlib.sim import drive, performance
 
     numba.set_num_threads(1)
     sim, cycles = _setup()
-    udds = cycles["udds"]
-    cycle = {"udds_grade20": udds, "udds_flat": udds.with_grade(0.0), "ftp": cycles["ftp"]}[case]
+    cycle = cases(cycles)[case]
     X = lhs_designs(sim.params.design_space.space(), n, seed=2026)
     sim.run_raw(X, cycle, performance=False)
     names = {}

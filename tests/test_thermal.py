@@ -177,12 +177,13 @@ def test_the_thermal_start_is_an_argument_of_the_drive(sim, cycles):
     """``simulate`` takes its thermal start: the params' by default (the same bits as passing it), a named
     state, or the nine node temperatures; a hot FTP burns less fuel and lights off sooner than the cold one."""
     ftp = cycles["ftp"]
-    cold = sim.run_raw(None, ftp, "prius", performance=False).out
+    first = sim.run_raw(None, ftp, "prius", performance=False)
+    cold = first.out
     nodes = sim.library.start_temperatures("ftp", "prius")
     assert np.array_equal(sim.run_raw(None, ftp, "prius", performance=False, thermal_start=nodes).out, cold)
     assert np.array_equal(sim.run_raw(None, ftp, "prius", performance=False, thermal_start="cold").out, cold)
     hot = sim.run_raw(None, ftp, "prius", performance=False, thermal_start="hot").frame().iloc[0]
-    first = sim.run_raw(None, ftp, "prius", performance=False).frame().iloc[0]
+    first = first.frame().iloc[0]
     assert hot["t_cat_light_off_s"] == 0.0 < first["t_cat_light_off_s"]
     assert hot["e_fuel_j"] < first["e_fuel_j"]
     warm = nodes + 40.0  # any start: every node 40 K above ambient lies between the two
