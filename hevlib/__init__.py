@@ -18,7 +18,15 @@ MODEL_VERSION = "sim-5"
 #: Modules compiled by numba. Its on-disk cache keys a kernel on its own file only, not on the
 #: modules it calls, so the cache lives in a folder named after a hash of all of them: editing any
 #: kernel module starts a fresh cache instead of silently reusing stale machine code.
-_KERNEL_SOURCES = ("lookup.py", "scaling.py", "sim/control.py", "sim/drive.py", "sim/performance.py", "sim/powertrain")
+_KERNEL_SOURCES = (
+    "lookup.py",
+    "powers.py",
+    "scaling.py",
+    "sim/control.py",
+    "sim/drive.py",
+    "sim/performance.py",
+    "sim/powertrain",
+)
 #: Everything that changes a simulated response (kernels, responses, component data handling).
 SIMULATOR_SOURCES = (
     *_KERNEL_SOURCES,

@@ -47,6 +47,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "hevlib.cycles",
             "hevlib.doe",
             "hevlib.lookup",
+            "hevlib.powers",
             "hevlib.scaling",
             "hevlib.sim",
             "hevlib.sizing",

@@ -43,7 +43,7 @@ from hevlib.sim.powertrain.layout import (
     THERMAL_SOURCES,
     TRACE_NAMES,
 )
-from hevlib.sim.powertrain.thermal import N_NODES, cold_factors, start_temperatures
+from hevlib.sim.powertrain.thermal import KELVIN, N_NODES, cold_factors
 from hevlib.sim.vehicles import LIGHT_OFF_HC_CONVERSION, VEHICLES, KernelLibrary, Kind, Vehicle
 
 #: Designs that drive less than this share of the cycle get their per-km figures on this distance
@@ -72,13 +72,10 @@ def thermal_start_c(vehicle: Vehicle, cycle: Cycle, thermal_start: str | np.ndar
     params give that cycle (``sim.start``); ``"cold"`` (every node at ambient) or ``"hot"`` (ADVISOR's
     preconditioned engine); or the temperatures themselves, in :data:`~hevlib.sim.powertrain.thermal.NODE_NAMES`
     order."""
-    lib = vehicle.library
-    if thermal_start is None:
-        return lib.start_temperatures(cycle.name, vehicle.kind)
-    if isinstance(thermal_start, str):
-        return start_temperatures(thermal_start, lib.params.sim.ambient_c, lib.thermal[vehicle.kind].t_stat_c)
+    if thermal_start is None or isinstance(thermal_start, str):
+        return vehicle.library.start_temperatures(cycle.name, vehicle.kind, thermal_start)
     t = np.array(thermal_start, dtype=float)
-    if t.shape != (N_NODES,) or not np.isfinite(t).all() or (t < -273.15).any():
+    if t.shape != (N_NODES,) or not np.isfinite(t).all() or (t < -KELVIN).any():
         raise ValueError(f"thermal start: {N_NODES} finite node temperatures in degC expected, got {thermal_start!r}")
     return t
 

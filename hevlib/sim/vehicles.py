@@ -170,7 +170,7 @@ def battery_arrays(module) -> BatteryArrays:
     )
 
 
-def drive_config(lib: ComponentLibrary, params: Params, body, wheel, engine: EngineMap) -> DriveConfig:
+def drive_config(params: Params, body, wheel, engine: EngineMap) -> DriveConfig:
     """The scalars every design of a batch shares, for either car: chassis, road, brakes, fuel (one-second
     step)."""
     sim = params.sim
@@ -253,10 +253,10 @@ class KernelLibrary:
         sim, base, pms = params.sim, params.baseline, params.pms
         e_h, e_c = engine_arrays(lib.engine_hybrid), engine_arrays(lib.engine_conventional)
         configs = {
-            "hybrid": drive_config(lib, params, lib.body_conventional, lib.wheel_conventional, lib.engine_hybrid),
-            "prius": drive_config(lib, params, lib.body_prius, lib.wheel_prius, lib.engine_hybrid),
+            "hybrid": drive_config(params, lib.body_conventional, lib.wheel_conventional, lib.engine_hybrid),
+            "prius": drive_config(params, lib.body_prius, lib.wheel_prius, lib.engine_hybrid),
             "conventional": drive_config(
-                lib, params, lib.body_conventional, lib.wheel_conventional, lib.engine_conventional
+                params, lib.body_conventional, lib.wheel_conventional, lib.engine_conventional
             ),
         }
         amb, cold = sim.ambient_c, sim.cold_correction == "advisor"
@@ -339,9 +339,11 @@ class KernelLibrary:
         """``cold`` or ``hot``: the thermal start of a cycle (params ``sim.start``; cold if not listed)."""
         return self.params.sim.start.get(cycle_name, "cold")
 
-    def start_temperatures(self, cycle_name: str, kind: Kind) -> np.ndarray:
-        """The nine thermal nodes' start temperatures of a ``kind`` of vehicle on a cycle, degC."""
-        return start_temperatures(self.start_state(cycle_name), self.params.sim.ambient_c, self.thermal[kind].t_stat_c)
+    def start_temperatures(self, cycle_name: str, kind: Kind, state: str | None = None) -> np.ndarray:
+        """The nine thermal nodes' start temperatures of a ``kind`` of vehicle on a cycle, degC: of the params'
+        start for the cycle, or of ``state`` (``cold`` or ``hot``) where given."""
+        state = self.start_state(cycle_name) if state is None else state
+        return start_temperatures(state, self.params.sim.ambient_c, self.thermal[kind].t_stat_c)
 
 
 def design_frame(design, space: DesignSpace) -> np.ndarray:

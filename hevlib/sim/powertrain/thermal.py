@@ -46,6 +46,7 @@ import numpy as np
 from numba import njit
 
 from hevlib.lookup import bracket, interp1
+from hevlib.powers import pow_0_3
 from hevlib.sim.powertrain import layout as L
 
 SIGMA = 5.670374419e-8  # Stefan-Boltzmann, W/m^2/K^4
@@ -301,7 +302,7 @@ def _h_air(dt_k: float, base_forced: float) -> float:
     is not evaluated)."""
     if dt_k == 0.0:
         return base_forced
-    return base_forced + 6.0 * (abs(dt_k) / 1000.0) ** 0.3
+    return base_forced + 6.0 * pow_0_3(abs(dt_k) / 1000.0)
 
 
 @njit(cache=True, inline="always")
