@@ -43,7 +43,7 @@ E_OFFSET = 1030 - 1023  # biased exponent + this = e + 1030 = 10 (q + 103) + s, 
 
 
 def _tables() -> tuple[np.ndarray, np.ndarray]:
-    """``C[j] = 1 / c_j`` and ``T[s * N_BRACKET + j] = 2^(0.3 s) c_j^0.3``, each correctly rounded."""
+    """``INV_C[j] = 1 / c_j`` and ``TABLE[s * N_BRACKET + j] = 2^(0.3 s) c_j^0.3``, each correctly rounded."""
     with localcontext() as ctx:
         ctx.prec = 50
         inv_c, table, ln2 = [], np.empty(10 * N_BRACKET), Decimal(2).ln()
@@ -59,28 +59,24 @@ def _tables() -> tuple[np.ndarray, np.ndarray]:
 INV_C, TABLE = _tables()
 
 
-@intrinsic
-def _bits(typingctx, x):
-    """The IEEE-754 bits of a double as an int64."""
-    if x != types.float64:
-        return None
+def _bitcast(src, dst):
+    """A numba intrinsic reading a value of type ``src`` as the same 64 bits of type ``dst``."""
 
-    def codegen(context, builder, sig, args):
-        return builder.bitcast(args[0], context.get_value_type(types.int64))
+    @intrinsic
+    def cast(typingctx, x):
+        if x != src:
+            return None
 
-    return types.int64(types.float64), codegen
+        def codegen(context, builder, sig, args):
+            return builder.bitcast(args[0], context.get_value_type(dst))
+
+        return dst(src), codegen
+
+    return cast
 
 
-@intrinsic
-def _from_bits(typingctx, b):
-    """The double whose IEEE-754 bits are the int64 ``b``."""
-    if b != types.int64:
-        return None
-
-    def codegen(context, builder, sig, args):
-        return builder.bitcast(args[0], context.get_value_type(types.float64))
-
-    return types.float64(types.int64), codegen
+_bits = _bitcast(types.float64, types.int64)  # the IEEE-754 bits of a double
+_from_bits = _bitcast(types.int64, types.float64)  # the double of those bits
 
 
 @njit(cache=True, inline="always")
@@ -107,16 +103,3 @@ def pow_0_3(x: float) -> float:
     p = r * ((A1 + A2 * r) + r2 * ((A3 + A4 * r) + r2 * (A5 + A6 * r)))
     tab = TABLE[s * N_BRACKET + j]
     return (tab + tab * p) * _from_bits((3 * (q - 103) + 1023) << 52) * scale
-
-
-@njit(cache=True, inline="always")
-def pow_0_6(x: float) -> float:
-    """``x ** 0.6 = (x ** 0.3) ** 2`` for ``x >= 0``; within 3 ulp."""
-    p = pow_0_3(x)
-    return p * p
-
-
-@njit(cache=True, inline="always")
-def pow_0_8(x: float) -> float:
-    """``x ** 0.8 = sqrt(x) x ** 0.3`` for ``x >= 0`` (IEEE ``sqrt`` is correctly rounded); within 3 ulp."""
-    return np.sqrt(x) * pow_0_3(x)
