@@ -35,6 +35,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "hevlib.io",
             "hevlib.params",
             "hevlib.profiles",
+            "hevlib.pytest_pins",
             "hevlib.regression_check",
             "hevlib.tables",
         ),

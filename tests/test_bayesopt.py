@@ -198,8 +198,12 @@ def test_the_failure_model_steers_a_run_away_from_designs_that_stall(monkeypatch
         R["stalled"] = np.asarray(X)[:, 0] < 45.0  # small engines stall
         return R
 
-    run = _run("parego", budget=35, simulate=simulate)
-    assert run.R["stalled"].iloc[:20].mean() > 0.2
+    def stalled_after_the_doe(runs) -> int:
+        return sum(int(run.R["stalled"].iloc[20:].sum()) for run in runs)
+
+    seeds = (1, 2, 3)  # one seed's 15 new designs can tie (measured: 4 and 4 on one CPU): pool three
+    runs = [_run("parego", seed=seed, budget=35, simulate=simulate) for seed in seeds]
+    assert all(run.R["stalled"].iloc[:20].mean() > 0.2 for run in runs)
     import hevlib.optimise.bayesopt as bo
 
     fit = bo.fit_models
@@ -208,7 +212,7 @@ def test_the_failure_model_steers_a_run_away_from_designs_that_stall(monkeypatch
         return bo.RoundModels(fit(*args).objectives, None)
 
     monkeypatch.setattr(bo, "fit_models", without_failure_model)
-    blind = _run("parego", budget=35, simulate=simulate)
+    blind = [_run("parego", seed=seed, budget=35, simulate=simulate) for seed in seeds]
     # where the objectives' GPs have no data (every design there stalled) they are unsure, so the
-    # expected improvement is large: only the failure model keeps the search out
-    assert run.R["stalled"].iloc[20:].mean() < blind.R["stalled"].iloc[20:].mean()
+    # expected improvement is large: only the failure model keeps the search out (pinned: 13 against 21 of 45)
+    assert stalled_after_the_doe(runs) + 4 <= stalled_after_the_doe(blind)

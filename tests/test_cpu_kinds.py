@@ -31,7 +31,7 @@ from hevlib.profiles import apply_overrides, load_profile
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
-pytestmark = [pytest.mark.slow, pytest.mark.cpukinds]
+pytestmark = [pytest.mark.slow, pytest.mark.cpukinds, pytest.mark.timeout(3600)]
 
 #: The benchmark's runs at a small budget: ParEGO (BoTorch on torch, scipy's SLSQP) and NSGA-III on the BNN,
 #: one seed each. (The fast pipeline runs both BoTorch sources too.)

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-pytestmark = [pytest.mark.slow, pytest.mark.repro]
+pytestmark = [pytest.mark.slow, pytest.mark.repro, pytest.mark.timeout(3600)]
 
 
 def _git(*args: str, cwd: Path = REPO) -> str:
