@@ -16,8 +16,9 @@ OpenBLAS (numpy's and  the kernel (SkylakeX, Haswell, Zen...):      ``OPENBLAS_C
 scipy's)               ``@``, solve, inv, eigvalsh, lstsq; the      x86-64-v2 CPU runs) and one thread
                        thread count (split dot products)
 torch (ATen, MKL)      ATen's vector width, MKL's code path and     ``ATEN_CPU_CAPABILITY=default``,
-                       both thread pools                            ``MKL_CBWR=COMPATIBLE``, one thread
-                                                                    (:func:`torch`)
+                       both thread pools; MKL's vector math         ``MKL_CBWR=COMPATIBLE``, one thread; the
+                       (``exp``, ``sqrt``, ``erfinv``...), which    vector math runs numpy's and scipy's
+                       ``MKL_CBWR`` does not fix                    code (:func:`torch`, :data:`VECTOR_MATH`)
 glibc's libm           ``exp``, ``log``, ``pow``, ``sin``... have   ``GLIBC_TUNABLES=glibc.cpu.hwcaps=-FMA,-FMA4``:
                        FMA variants chosen per CPU; numba's         the SSE2 variants on every CPU
                        kernels and numpy's baseline call them
@@ -149,7 +150,96 @@ def torch():
             _torch.set_num_interop_threads(1)
         except RuntimeError:  # already set, or parallel work already started: the intra-op count is what rounds
             pass
+        _route_vector_math(_torch)
     return _torch
+
+
+# ------------------------------------------------------------------------- torch's vector math (MKL VM)
+#: The elementwise functions ATen hands to MKL's vector math (``aten/src/ATen/cpu/vml.h``: ``vmdExp``... in high
+#: accuracy mode) for every contiguous or buffered float tensor, and the numpy / scipy function each is routed to
+#: instead. ``MKL_CBWR=COMPATIBLE`` pins MKL's BLAS and LAPACK but not these: ``torch.sqrt`` is not even correctly
+#: rounded (1 332 of 100 003 values 1 ulp off on an Intel Sapphire Rapids; 14 487 under an emulated Haswell or
+#: EPYC, whose matmul, Cholesky and triangular solves gave the native bytes), and the BoTorch ParEGO source's
+#: third round picked other designs on such a machine than on the one that made the committed bytes. numpy's
+#: baseline loops and scipy's special functions run the same instructions on every CPU and call glibc's libm
+#: (pinned above) or IEEE ``sqrt``. Which ops: those whose bytes change with ``MKL_CBWR`` (AVX2, AVX512 against
+#: COMPATIBLE), ``tests/test_determinism.py``.
+VECTOR_MATH: dict[str, tuple[str, str]] = {
+    "exp": ("numpy", "exp"),
+    "log": ("numpy", "log"),
+    "log2": ("numpy", "log2"),
+    "log10": ("numpy", "log10"),
+    "sqrt": ("numpy", "sqrt"),
+    "tanh": ("numpy", "tanh"),
+    "sin": ("numpy", "sin"),
+    "cos": ("numpy", "cos"),
+    "tan": ("numpy", "tan"),
+    "asin": ("numpy", "arcsin"),
+    "acos": ("numpy", "arccos"),
+    "atan": ("numpy", "arctan"),
+    "erf": ("scipy.special", "erf"),
+    "erfc": ("scipy.special", "erfc"),
+    "erfinv": ("scipy.special", "erfinv"),
+}
+_ROUTED: list = []  # the torch.library registrations (kept alive: dropping one restores ATen's kernel)
+
+
+def _numpy_kernels(torch_mod, fn):
+    """ATen CPU kernels (functional, in place, out) computing ``fn`` (a numpy ufunc) on a tensor's values."""
+    import numpy as np
+
+    def compute(x):
+        if not (x.is_floating_point() or x.is_complex()):
+            x = x.to(torch_mod.get_default_dtype())  # ATen's promotion of integer inputs
+        wide = x.dtype in (torch_mod.float16, torch_mod.bfloat16)  # computed in float32, as ATen does
+        a = (x.float() if wide else x).detach().contiguous().numpy()
+        with np.errstate(all="ignore"):  # ATen's kernels return nan / inf silently
+            y = torch_mod.from_numpy(np.asarray(fn(a)).reshape(a.shape))
+        return y.to(x.dtype) if wide else y
+
+    def functional(x):
+        y = compute(x)
+        if x.is_contiguous():
+            return y
+        strided = torch_mod.empty_like(x, dtype=y.dtype)  # ATen's output keeps the input's layout
+        return strided.copy_(y)
+
+    def inplace(x):
+        x.copy_(compute(x))
+        return x
+
+    def out(x, *, out):
+        y = compute(x)
+        if out.shape != y.shape:
+            out.resize_(y.shape)
+        out.copy_(y)
+        return out
+
+    return functional, inplace, out
+
+
+def _route_vector_math(torch_mod) -> None:
+    """Register :data:`VECTOR_MATH` as the CPU kernels of those ATen ops (once per process); autograd's formulas
+    are untouched (they sit above the CPU kernel and call these ops through the dispatcher)."""
+    if _ROUTED:
+        return
+    import importlib
+    import warnings
+
+    lib = torch_mod.library.Library("aten", "IMPL")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # "Overriding a previously registered kernel": intended
+        for op, (module, name) in VECTOR_MATH.items():
+            functional, inplace, out = _numpy_kernels(torch_mod, getattr(importlib.import_module(module), name))
+            lib.impl(op, functional, "CPU")
+            lib.impl(f"{op}_", inplace, "CPU")
+            lib.impl(f"{op}.out", out, "CPU")
+    _ROUTED.append(lib)
+
+
+def vector_math_routed() -> bool:
+    """Whether torch's vector math runs through numpy / scipy in this process (:data:`VECTOR_MATH`)."""
+    return bool(_ROUTED)
 
 
 # ------------------------------------------------------------------------------------------- status
@@ -193,6 +283,8 @@ def status() -> dict[str, str]:
     if "torch" in sys.modules:
         t = sys.modules["torch"]
         out["torch"] = f"{t.backends.cpu.get_cpu_capability()}, {t.get_num_threads()} thread(s)"
+        routed = f"numpy / scipy ({len(VECTOR_MATH)} functions)" if vector_math_routed() else "MKL"
+        out["torch vector math"] = routed
     return out
 
 
@@ -215,6 +307,8 @@ def check() -> list[str]:
         t = sys.modules["torch"]
         if t.backends.cpu.get_cpu_capability() != "DEFAULT":
             problems.append(f"torch: capability {t.backends.cpu.get_cpu_capability()}, not DEFAULT")
+        if not vector_math_routed():
+            problems.append("torch: exp, log, sqrt... on MKL's vector math (import it through determinism.torch)")
     return problems
 
 
@@ -222,6 +316,7 @@ __all__ = [
     "AT_EXEC",
     "OFF_SWITCH",
     "PINNED",
+    "VECTOR_MATH",
     "check",
     "disabled",
     "ensure_pinned",
@@ -230,4 +325,5 @@ __all__ = [
     "pinned_environ",
     "status",
     "torch",
+    "vector_math_routed",
 ]

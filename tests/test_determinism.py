@@ -55,6 +55,8 @@ out["torch_mm"] = h((t.transpose(1, 2) @ t).numpy())
 out["torch_cdist"] = h(torch.cdist(t[:, :60, :7], t[:, :60, :7]).numpy())
 out["torch_cholesky"] = h(torch.linalg.cholesky(torch.as_tensor(M)).numpy())
 out["torch_sum_exp"] = h(torch.exp(torch.as_tensor(x)).sum().numpy())
+out["torch_vector_math"] = h(torch.stack([torch.sqrt(torch.as_tensor(p)), torch.erfinv(torch.as_tensor(x) / 3.1),
+                                          torch.erfc(torch.as_tensor(x)), torch.log(torch.as_tensor(p))]).numpy())
 out["problems"] = determinism.check()
 print(json.dumps(out))
 """
@@ -123,3 +125,38 @@ def test_the_hev_entry_point_runs_every_command_pinned():
         [hev, "platform"], env={**_clean_env(), determinism.OFF_SWITCH: "1"}, capture_output=True, text=True
     )
     assert off.returncode == 0 and "off" in off.stdout
+
+
+def test_torchs_vector_math_runs_numpys_and_scipys_code():
+    """Every function of ``VECTOR_MATH`` (MKL's vector math in ATen) gives numpy's or scipy's bytes, in its
+    functional, in-place and ``out=`` forms, on strided and 0-d tensors; float32 stays float32, integers are
+    promoted as ATen does; autograd's formulas still apply."""
+    import importlib
+
+    import numpy as np
+
+    if determinism.disabled():
+        pytest.skip("pins switched off")
+    torch = determinism.torch()
+    assert determinism.vector_math_routed()
+    rng = np.random.default_rng(3)
+    x = rng.uniform(0.001, 0.999, 4_099)
+    for op, (module, name) in determinism.VECTOR_MATH.items():
+        ref = getattr(importlib.import_module(module), name)
+        fn = getattr(torch, op)
+        t = torch.as_tensor(x)
+        assert fn(t).numpy().tobytes() == ref(x).tobytes(), op
+        inplace = t.clone()
+        getattr(inplace, f"{op}_")()
+        assert inplace.numpy().tobytes() == ref(x).tobytes(), op
+        out = torch.empty(0, dtype=torch.float64)
+        fn(t, out=out)
+        assert out.numpy().tobytes() == ref(x).tobytes(), op
+        m = torch.as_tensor(x[:12].reshape(3, 4)).T  # strided: the output keeps the input's layout
+        assert fn(m).stride() == m.stride() and np.array_equal(fn(m).numpy(), ref(x[:12].reshape(3, 4)).T), op
+        assert fn(torch.tensor(0.5, dtype=torch.float64)).shape == ()
+        assert fn(torch.as_tensor(x[:9], dtype=torch.float32)).dtype == torch.float32
+    assert torch.sqrt(torch.tensor([4, 9])).tolist() == [2.0, 3.0]
+    y = torch.as_tensor(x[:50]).requires_grad_(True)
+    torch.sqrt(y).sum().backward()
+    assert torch.allclose(y.grad, 0.5 / torch.as_tensor(np.sqrt(x[:50])), rtol=1e-15, atol=0)
