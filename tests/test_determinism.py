@@ -160,3 +160,37 @@ def test_torchs_vector_math_runs_numpys_and_scipys_code():
     y = torch.as_tensor(x[:50]).requires_grad_(True)
     torch.sqrt(y).sum().backward()
     assert torch.allclose(y.grad, 0.5 / torch.as_tensor(np.sqrt(x[:50])), rtol=1e-15, atol=0)
+
+
+#: torch's unary float ops, each evaluated on one set of arguments in its domain, unrouted (torch imported directly).
+UNARY_PROBE = r"""
+import hashlib, json
+import numpy as np, torch
+torch.set_num_threads(1)
+rng = np.random.default_rng(0)
+x = torch.as_tensor(rng.uniform(-0.99, 0.99, 10_007))
+pos = x.abs() + 1e-3
+arg = {"acosh": x.abs() + 1.0, "log": pos, "log10": pos, "log2": pos, "sqrt": pos, "rsqrt": pos, "lgamma": pos,
+       "digamma": pos}
+names = ["exp", "exp2", "expm1", "log", "log2", "log10", "log1p", "sqrt", "rsqrt", "tanh", "sinh", "cosh", "sin",
+         "cos", "tan", "asin", "acos", "atan", "asinh", "acosh", "atanh", "erf", "erfc", "erfinv", "sigmoid",
+         "reciprocal", "lgamma", "digamma", "i0"]
+print(json.dumps({n: hashlib.sha256(getattr(torch, n)(arg.get(n, x)).numpy().tobytes()).hexdigest() for n in names}))
+"""
+
+
+def test_every_unary_op_whose_bytes_follow_mkls_branch_is_routed(tmp_path):
+    """The ops of ``VECTOR_MATH`` are exactly those MKL computes: an op outside it whose bytes change between MKL's
+    COMPATIBLE branch and the one it picks for this CPU (AUTO) would be a CPU-dependent path left open."""
+    script = tmp_path / "unary.py"
+    script.write_text(UNARY_PROBE)
+
+    def run(branch: str) -> dict:
+        env = {**_clean_env(), "MKL_CBWR": branch, "ATEN_CPU_CAPABILITY": "default", determinism.OFF_SWITCH: "1"}
+        out = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, out.stderr[-3000:]
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
+    compatible, auto = run("COMPATIBLE"), run("AUTO")
+    moved = {n for n in compatible if compatible[n] != auto[n]}
+    assert moved <= set(determinism.VECTOR_MATH), sorted(moved - set(determinism.VECTOR_MATH))
