@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 from pathlib import Path
 
 import pytest
 
+from hevlib import determinism
 from hevlib.components import ComponentLibrary
 from hevlib.params import Params, load_params
 from hevlib.sizing import study_library
@@ -38,6 +40,13 @@ CPU_KINDS: dict[str, dict[str, str]] = {
         "NUMBA_NUM_THREADS": "1",
     },
 }
+
+
+def unpinned_environ() -> dict[str, str]:
+    """This process's environment without anything a CPU kind sets or the pins set (tests import hevlib, which
+    pins in process; pytest re-executes itself pinned): the base of a subprocess that sets its own."""
+    drop = {n for kind in CPU_KINDS.values() for n in kind} | set(determinism.PINNED) | {"HEV_PINNED_EXEC"}
+    return {k: v for k, v in os.environ.items() if k not in drop}
 
 
 def copy_repo(root: Path, dest: Path) -> None:

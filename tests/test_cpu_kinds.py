@@ -24,9 +24,8 @@ from pathlib import Path
 
 import pytest
 import yaml
-from conftest import CPU_KINDS, copy_repo
+from conftest import CPU_KINDS, copy_repo, unpinned_environ
 
-from hevlib import determinism
 from hevlib.profiles import apply_overrides, load_profile
 
 REPO = Path(__file__).resolve().parents[1]
@@ -89,9 +88,7 @@ def _run_kind(dest: Path, kind: dict[str, str]) -> dict[str, str]:
     params = yaml.safe_load((dest / "params.yaml").read_text())
     overrides = {**load_profile("fast", dest / "params.yaml", dest / "profiles"), **BENCHMARK, **ROBUSTNESS}
     (dest / "params.yaml").write_text(yaml.safe_dump(apply_overrides(params, overrides), sort_keys=False))
-    drop = {name for k in CPU_KINDS.values() for name in k} | set(determinism.PINNED) | {"HEV_PINNED_EXEC"}
-    env = {name: value for name, value in os.environ.items() if name not in drop}
-    env.update(kind)
+    env = {**unpinned_environ(), **kind}
     env.update({"PATH": f"{BIN}{os.pathsep}{env.get('PATH', '')}", "PYTHONPATH": str(dest), "DVC_NO_ANALYTICS": "1"})
 
     def run(*cmd: str) -> None:

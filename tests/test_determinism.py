@@ -10,7 +10,7 @@ import subprocess
 import sys
 
 import pytest
-from conftest import CPU_KINDS
+from conftest import CPU_KINDS, unpinned_environ
 
 from hevlib import determinism
 
@@ -62,15 +62,8 @@ print(json.dumps(out))
 """
 
 
-def _clean_env() -> dict[str, str]:
-    """This process's environment without anything a kind emulates or the pins set (tests import hevlib, which
-    pins in process)."""
-    drop = {n for kind in CPU_KINDS.values() for n in kind} | set(determinism.PINNED) | {"HEV_PINNED_EXEC"}
-    return {k: v for k, v in os.environ.items() if k not in drop}
-
-
 def _probe(script, kind: dict[str, str], pinned: bool) -> dict:
-    env = {**_clean_env(), **kind}
+    env = {**unpinned_environ(), **kind}
     if not pinned:
         env[determinism.OFF_SWITCH] = "1"
     args = [sys.executable, str(script), *(["pin"] if pinned else [])]
@@ -118,11 +111,11 @@ def test_the_hev_entry_point_runs_every_command_pinned():
     """`hev` re-executes itself under the pins: `hev platform` sees every one in effect (glibc's and the hash
     seed's included, which no in-process setting can give) and says so."""
     hev = os.path.join(os.path.dirname(sys.executable), "hev")
-    out = subprocess.run([hev, "platform"], env=_clean_env(), capture_output=True, text=True, timeout=120)
+    out = subprocess.run([hev, "platform"], env=unpinned_environ(), capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stdout + out.stderr
     assert "every pin in effect" in out.stdout and f"kernel {determinism.OPENBLAS_CORE}" in out.stdout
     off = subprocess.run(
-        [hev, "platform"], env={**_clean_env(), determinism.OFF_SWITCH: "1"}, capture_output=True, text=True
+        [hev, "platform"], env={**unpinned_environ(), determinism.OFF_SWITCH: "1"}, capture_output=True, text=True
     )
     assert off.returncode == 0 and "off" in off.stdout
 
@@ -186,7 +179,7 @@ def test_every_unary_op_whose_bytes_follow_mkls_branch_is_routed(tmp_path):
     script.write_text(UNARY_PROBE)
 
     def run(branch: str) -> dict:
-        env = {**_clean_env(), "MKL_CBWR": branch, "ATEN_CPU_CAPABILITY": "default", determinism.OFF_SWITCH: "1"}
+        env = {**unpinned_environ(), "MKL_CBWR": branch, "ATEN_CPU_CAPABILITY": "default", determinism.OFF_SWITCH: "1"}
         out = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=300)
         assert out.returncode == 0, out.stderr[-3000:]
         return json.loads(out.stdout.strip().splitlines()[-1])

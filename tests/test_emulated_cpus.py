@@ -16,14 +16,13 @@ Needs ``qemu-x86_64`` (Debian's ``qemu-user``; ``.ci/run`` installs it); about 2
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-from conftest import CPU_KINDS
+from conftest import unpinned_environ
 
 from hevlib import determinism
 
@@ -86,9 +85,7 @@ print(json.dumps(out))
 def _env() -> dict[str, str]:
     """Pinned, without anything a CPU kind of ``test_cpu_kinds`` sets; the re-execution guard set, so that the
     probe never re-executes (QEMU user mode would run the new image natively)."""
-    drop = {n for kind in CPU_KINDS.values() for n in kind} | set(determinism.PINNED) | {"HEV_PINNED_EXEC"}
-    env = {k: v for k, v in os.environ.items() if k not in drop}
-    return {**determinism.pinned_environ(env), "HEV_PINNED_EXEC": "1"}
+    return {**determinism.pinned_environ(unpinned_environ()), "HEV_PINNED_EXEC": "1"}
 
 
 def _start(script: Path, cpu: str | None, *extra: str) -> subprocess.Popen:
