@@ -73,11 +73,45 @@ ComponentFile = Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+\.ya?ml$")]
 class _PartValues(_Strict):
     def values(self) -> dict[str, float]:
         """The values that replace the file's (the keys given, not null)."""
-        return {k: float(v) for k, v in self.model_dump(exclude={"file"}).items() if v is not None}
+        return {k: float(v) for k, v in self.model_dump(exclude={"file", "coast_down"}).items() if v is not None}
+
+
+#: Newtons per pound-force and metres per second per mile per hour (both exact by definition: the avoirdupois
+#: pound 0.45359237 kg under standard gravity 9.80665 m/s^2; the international mile 1609.344 m per 3600 s).
+N_PER_LBF = 0.45359237 * 9.80665
+MPS_PER_MPH = 0.44704
+
+
+class CoastDownParams(_Strict):
+    """A body's road load from its coast-down: ``F = A + B v + C v^2`` with v in mph and F in lbf (the EPA's
+    target coefficients, ``Target Coef A/B/C`` of the test car list; :mod:`hevlib.epa`). It replaces drag
+    coefficient x frontal area, the wheel file's rolling resistance and its axle drag: a coast-down in neutral
+    includes the tyres', the bearings', the brakes' and the driveline's drag."""
+
+    a_lbf: Annotated[float, Field(gt=0, le=300)]  # constant term: rolling resistance and friction, lbf
+    b_lbf_per_mph: Annotated[float, Field(ge=-3, le=3)]  # linear term, lbf per mph (may be negative)
+    c_lbf_per_mph2: Annotated[float, Field(gt=0, le=0.5)]  # quadratic term: aerodynamic drag, lbf per mph^2
+
+    @model_validator(mode="after")
+    def _positive(self):
+        a, b, c = self.a_lbf, self.b_lbf_per_mph, self.c_lbf_per_mph2
+        if b < 0 and a - b * b / (4 * c) <= 0:
+            raise ValueError(f"b_lbf_per_mph: {b:g} makes A + B v + C v^2 negative at {-b / (2 * c):.3g} mph")
+        return self
+
+    def si(self) -> tuple[float, float, float]:
+        """(A in N, B in N per m/s, C in N per (m/s)^2)."""
+        return (
+            self.a_lbf * N_PER_LBF,
+            self.b_lbf_per_mph * N_PER_LBF / MPS_PER_MPH,
+            self.c_lbf_per_mph2 * N_PER_LBF / (MPS_PER_MPH * MPS_PER_MPH),
+        )
 
 
 class BodyParams(_PartValues):
-    """A body: its file (ADVISOR ``VEH_*``), and values replacing the file's; null keeps the file's."""
+    """A body: its file (ADVISOR ``VEH_*``), and values replacing the file's; null keeps the file's. The road load
+    is either drag coefficient x frontal area (with the wheel's rolling resistance and axle drag) or ``coast_down``,
+    never both."""
 
     file: ComponentFile
     drag_coefficient: Annotated[float, Field(gt=0, le=2)] | None = None
@@ -86,6 +120,22 @@ class BodyParams(_PartValues):
     wheelbase_m: Annotated[float, Field(gt=0.5, le=10)] | None = None
     front_weight_fraction: Annotated[float, Field(gt=0, lt=1)] | None = None  # static share on the driven axle
     cargo_mass_kg: Annotated[float, Field(ge=0, le=3000)] | None = None
+    coast_down: CoastDownParams | None = None  # road load from a coast-down instead of Cd, area and tyres
+
+    @model_validator(mode="after")
+    def _one_road_load(self):
+        given = [k for k in ("drag_coefficient", "frontal_area_m2") if getattr(self, k) is not None]
+        if self.coast_down is not None and given:
+            raise ValueError(f"coast_down: give the road load as coast_down or as {' and '.join(given)}, not both")
+        return self
+
+    def values(self) -> dict[str, float]:
+        """The values that replace the file's, the coast-down's in SI (``Body.road_load_*``)."""
+        out = super().values()
+        if self.coast_down is not None:
+            a, b, c = self.coast_down.si()
+            out.update(road_load_a_n=a, road_load_b_n_per_mps=b, road_load_c_n_per_mps2=c)
+        return out
 
 
 class WheelParams(_PartValues):
@@ -95,6 +145,12 @@ class WheelParams(_PartValues):
     radius_m: Annotated[float, Field(gt=0.1, le=1.5)] | None = None  # rolling radius
     rolling_resistance: Annotated[float, Field(gt=0, le=0.1)] | None = None  # coefficient
     inertia_kg_m2: Annotated[float, Field(ge=0, le=100)] | None = None  # all wheels, tyres and axles
+
+
+def _one_rolling_resistance(body: BodyParams, wheel: WheelParams) -> None:
+    """A coast-down body's A term is its rolling resistance: the wheel may not give one too."""
+    if body.coast_down is not None and wheel.rolling_resistance is not None:
+        raise ValueError("wheel: rolling_resistance must be left out: body.coast_down gives the rolling term")
 
 
 class HybridKitParams(_Strict):
@@ -125,6 +181,11 @@ class ConventionalParams(_Strict):
     idle_speed_rpm: Annotated[float, Field(gt=300, le=2000)] = 800.0
 
     @model_validator(mode="after")
+    def _one_rolling_resistance(self):
+        _one_rolling_resistance(self.body, self.wheel)
+        return self
+
+    @model_validator(mode="after")
     def _shift_table(self):
         if len(self.upshift_kmh) != len(self.gear_ratios) - 1:
             raise ValueError("upshift_kmh: needs one speed fewer than gear_ratios")
@@ -148,6 +209,11 @@ class PriusParams(_Strict):
     n_r: Annotated[int, Field(ge=20, le=200)] = 78
     n_s: Annotated[int, Field(ge=10, le=200)] = 30
     test_mass_kg: Annotated[float, Field(gt=500, le=4000)] = 1404.0
+
+    @model_validator(mode="after")
+    def _one_rolling_resistance(self):
+        _one_rolling_resistance(self.body, self.wheel)
+        return self
 
     @model_validator(mode="after")
     def _gear_set(self):

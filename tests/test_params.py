@@ -54,14 +54,94 @@ BAD = [
     ("baseline.conventional.upshift_kmh", [40.0, 24.0, 64.0, 75.0], "baseline.conventional.upshift_kmh: speeds"),
 ]
 
+#: A coast-down road load (the 2022 Corolla 20-ZE2C/2's, lbf and mph) and a body that takes it.
+COAST_DOWN = {"a_lbf": 27.485, "b_lbf_per_mph": -0.10848, "c_lbf_per_mph2": 0.02012}
+CD_BODY = {"file": "VEH_EV1.yaml", "cg_height_m": 0.4, "coast_down": COAST_DOWN}
+BAD += [
+    # both forms of the road load, one way or the other
+    (
+        "baseline.conventional.body.coast_down",
+        COAST_DOWN,
+        "baseline.conventional.body.coast_down: give the road load as coast_down or as drag_coefficient and "
+        "frontal_area_m2, not both",
+    ),
+    (
+        "baseline.prius.body",
+        {**CD_BODY, "file": "VEH_PRIUS_JPN.yaml", "frontal_area_m2": 1.746},
+        "baseline.prius.body.coast_down: give the road load as coast_down or as frontal_area_m2, not both",
+    ),
+    # an incomplete one, an unknown key, a wrong type, out of range, a road load negative at some speed
+    (
+        "baseline.conventional.body",
+        {**CD_BODY, "coast_down": {"a_lbf": 27.5, "b_lbf_per_mph": 0.1}},
+        "baseline.conventional.body.coast_down.c_lbf_per_mph2: Field required",
+    ),
+    (
+        "baseline.conventional.body",
+        {**CD_BODY, "coast_down": {**COAST_DOWN, "d_lbf": 1.0}},
+        "baseline.conventional.body.coast_down.d_lbf: unknown key",
+    ),
+    (
+        "baseline.conventional.body",
+        {**CD_BODY, "coast_down": {**COAST_DOWN, "a_lbf": "27"}},
+        "baseline.conventional.body.coast_down.a_lbf: Input should be a valid number",
+    ),
+    (
+        "baseline.conventional.body",
+        {**CD_BODY, "coast_down": {**COAST_DOWN, "c_lbf_per_mph2": 0.0}},
+        "baseline.conventional.body.coast_down.c_lbf_per_mph2: Input should be greater than 0",
+    ),
+    (
+        "baseline.conventional.body",
+        {**CD_BODY, "coast_down": {**COAST_DOWN, "b_lbf_per_mph": -2.0}},
+        "baseline.conventional.body.coast_down.b_lbf_per_mph: -2 makes A + B v + C v^2 negative at 49.7 mph",
+    ),
+    (  # neither coefficient form: an empty coast-down (null is no coast-down: the body file's drag then)
+        "baseline.conventional.body",
+        {**CD_BODY, "coast_down": {}},
+        "baseline.conventional.body.coast_down.a_lbf: Field required (and 2 more errors)",
+    ),
+    # the tyres' rolling resistance beside a coast-down (whose A term is the rolling resistance)
+    (
+        "baseline.conventional.wheel.rolling_resistance",
+        0.009,
+        "baseline.conventional.wheel: rolling_resistance must be left out: body.coast_down gives the rolling term",
+    ),
+]
+
 
 @pytest.mark.parametrize("key, value, message", BAD)
 def test_bad_params_name_the_key_in_one_line(raw_params, key, value, message):
+    data = raw_params
+    if key.endswith(".rolling_resistance"):  # a coast-down body for the wheel to clash with
+        data = _with(raw_params, "baseline.conventional.body", CD_BODY)
     with pytest.raises(ParamsError) as info:
-        parse_params(_with(raw_params, key, value), "bad.yaml")
+        parse_params(_with(data, key, value), "bad.yaml")
     msg = str(info.value)
     assert msg.startswith(f"bad.yaml: {message}"), msg
     assert "\n" not in msg
+
+
+def test_a_coast_down_body_validates_and_gives_its_road_load_in_si(raw_params):
+    """A body with a coast-down and no drag coefficient or frontal area is valid, for either car; its values are the
+    coefficients in SI (lbf = 4.4482216152605 N exactly, mph = 0.44704 m/s exactly)."""
+    data = _with(raw_params, "baseline.conventional.body", CD_BODY)
+    data = _with(data, "baseline.prius.body", {"file": "VEH_PRIUS_JPN.yaml", "coast_down": COAST_DOWN})
+    p = parse_params(data)
+    values = p.baseline.conventional.body.values()
+    assert values == {
+        "cg_height_m": 0.4,
+        "road_load_a_n": pytest.approx(27.485 * 4.4482216152605, rel=1e-15),
+        "road_load_b_n_per_mps": pytest.approx(-0.10848 * 4.4482216152605 / 0.44704, rel=1e-15),
+        "road_load_c_n_per_mps2": pytest.approx(0.02012 * 4.4482216152605 / 0.44704**2, rel=1e-15),
+    }
+    assert p.baseline.prius.body.values().keys() == {"road_load_a_n", "road_load_b_n_per_mps", "road_load_c_n_per_mps2"}
+    # the study's bodies have none: their values are what they were
+    assert parse_params(raw_params).baseline.conventional.body.values() == {
+        "drag_coefficient": 0.19,
+        "frontal_area_m2": 2.038,
+        "cg_height_m": 0.4,
+    }
 
 
 def test_bad_cycle_name_and_file_errors(raw_params, tmp_path):

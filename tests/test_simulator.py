@@ -331,7 +331,7 @@ def test_battery_rint_model_round_trip_and_limits():
 
 
 def test_adhesion_and_force_speed_solution():
-    ch = Chassis(1200.0, 1260.0, 0.387, 0.009, 0.282, 6.4, 0.16, 0.55, 0.9, 1.2, 9.81)
+    ch = Chassis(1200.0, 1260.0, 0.387, 0.009, 0.282, 6.4, 0.16, 0.55, 0.9, 1.2, 9.81, 0.0)
     f = adhesion_limit(0.0, 1.0, 0.0, ch)
     a = f / ch.m_eff
     # at that force the front load (with the load transfer of that acceleration) is exactly mu times it

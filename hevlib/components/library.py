@@ -91,7 +91,13 @@ class ComponentLibrary:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             if dataclasses.is_dataclass(value):
-                items = {g.name: getattr(value, g.name) for g in dataclasses.fields(value)}
+                # a field left at a default of None is not written (load restores it): a body without a coast-down
+                # writes the bytes it wrote before bodies could have one
+                items = {
+                    g.name: getattr(value, g.name)
+                    for g in dataclasses.fields(value)
+                    if not (g.default is None and getattr(value, g.name) is None)
+                }
                 arrays = {k: v for k, v in items.items() if isinstance(v, np.ndarray)}
                 scalars = {k: v for k, v in items.items() if not isinstance(v, np.ndarray)}
                 index[f.name] = {"type": type(value).__name__, "scalars": scalars}

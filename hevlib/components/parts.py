@@ -172,6 +172,21 @@ class Body:
     front_weight_fraction: float
     air_density_kg_m3: float = 1.2
     gravity_m_s2: float = 9.81
+    # a coast-down road load F = A + B v + C v^2 (N, N per m/s, N per (m/s)^2; params' body.coast_down), which
+    # replaces drag coefficient x frontal area and the wheels' rolling resistance and axle drag; None: none given
+    road_load_a_n: float | None = None
+    road_load_b_n_per_mps: float | None = None
+    road_load_c_n_per_mps2: float | None = None
+
+    @property
+    def coast_down(self) -> tuple[float, float, float] | None:
+        """(A, B, C) of the body's coast-down road load in SI, or None (drag coefficient and frontal area)."""
+        abc = (self.road_load_a_n, self.road_load_b_n_per_mps, self.road_load_c_n_per_mps2)
+        if all(x is None for x in abc):
+            return None
+        if any(x is None for x in abc):
+            raise ValueError(f"body {self.name}: a coast-down road load needs all of A, B and C")
+        return abc
 
 
 @dataclass(frozen=True)

@@ -67,6 +67,7 @@ class DriveConfig(NamedTuple):
     j_wheel: float  # all wheels, tyres and axles, kg m^2
     j_eng: float  # base-map rotor inertia (scaled with each design's power), kg m^2
     off_trace_mps: float  # speed error above which a step counts as off the trace (speed_dev)
+    k_lin: float  # linear road-load term (a coast-down's B), N per m/s (hevlib.sim.vehicles.road_load); 0 else
 
 
 class SplitConfig(NamedTuple):
@@ -177,7 +178,18 @@ N_R = 9
 @njit(cache=True, inline="always")
 def chassis(m: float, m_eff: float, c: DriveConfig) -> Chassis:
     return Chassis(
-        m, m_eff, c.cda, c.crr, c.r, c.axle0_nm + c.axle_per_kg_nm * m, c.h_over_l, c.f_front, c.mu, c.rho, c.g
+        m,
+        m_eff,
+        c.cda,
+        c.crr,
+        c.r,
+        c.axle0_nm + c.axle_per_kg_nm * m,
+        c.h_over_l,
+        c.f_front,
+        c.mu,
+        c.rho,
+        c.g,
+        c.k_lin,
     )
 
 
@@ -411,7 +423,7 @@ def _newton_from(v0, v_e, f_e, slope, sn, cs, dt, v_max, ch: Chassis) -> float:
     this step's start speed and grade) rises with the force at ``1 / (2 m_eff / dt + rho CdA u)`` (0 on its
     branch where the step ends at v0 / 2)."""
     u = mean_speed_for_force(v0, f_e, sn, cs, dt, ch)
-    du_df = 1.0 / (2.0 * ch.m_eff / dt + ch.rho * ch.cda * u) if u > 0.0 and 2.0 * u - v0 > 0.0 else 0.0
+    du_df = 1.0 / (2.0 * ch.m_eff / dt + ch.k_lin + ch.rho * ch.cda * u) if u > 0.0 and 2.0 * u - v0 > 0.0 else 0.0
     dh = min(du_df * slope - 1.0, -0.1)  # h falls with v (the force falls, or barely rises, with speed)
     return min(max(v_e - (u - v_e) / dh, 0.0), v_max)
 

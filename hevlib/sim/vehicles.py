@@ -14,12 +14,21 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 import pandas as pd
 
-from hevlib.components import Catalyst, ComponentLibrary, EngineMap, EngineThermal, MachineMap, best_efficiency_line
+from hevlib.components import (
+    Body,
+    Catalyst,
+    ComponentLibrary,
+    EngineMap,
+    EngineThermal,
+    MachineMap,
+    Wheel,
+    best_efficiency_line,
+)
 from hevlib.design import DESIGN_VARS, DesignSpace, design_vector
 from hevlib.lookup import resample, uniform_axis
 from hevlib.params import Params
@@ -170,20 +179,49 @@ def battery_arrays(module) -> BatteryArrays:
     )
 
 
-def drive_config(params: Params, body, wheel, engine: EngineMap) -> DriveConfig:
+class RoadLoad(NamedTuple):
+    """A body's road-load terms as the kernels read them (:class:`~hevlib.sim.powertrain.vehicle.Chassis`)."""
+
+    cda: float  #: drag coefficient x frontal area, m^2
+    crr: float  #: rolling-resistance coefficient
+    k_lin: float  #: linear term, N per m/s (a coast-down's B; 0 otherwise)
+    axle0_nm: float  #: driven-axle drag torque at 0 kg, N m ...
+    axle_per_kg_nm: float  #: ... and its rise per kg of test mass
+
+
+def road_load(body: Body, wheel: Wheel, test_mass_kg: float) -> RoadLoad:
+    """The road load of a body on its wheels: drag coefficient x frontal area with the wheel file's rolling
+    resistance and axle drag, or the body's coast-down ``F = A + B v + C v^2`` (SI, ``Body.coast_down``):
+
+    - ``C`` is the aerodynamic term: ``CdA = 2 C / rho``, so ``1/2 rho CdA v^2 = C v^2``;
+    - ``A`` is the rolling term: ``crr = A / (m g)`` at the car's test mass ``m``, so the car itself meets
+      ``A cos(theta)``, and a conversion of another mass on its chassis ``A m' / m cos(theta)``;
+    - ``B`` is the linear term ``k_lin`` (booked with rolling resistance);
+    - no axle drag: a coast-down in neutral includes the bearings', the brakes' and the driveline's drag.
+    """
+    abc = body.coast_down
+    if abc is None:
+        cda = body.drag_coefficient * body.frontal_area_m2
+        return RoadLoad(cda, wheel.rolling_resistance, 0.0, wheel.axle_drag_nm_at_0kg, wheel.axle_drag_nm_per_kg)
+    a, b, c = abc
+    return RoadLoad(2.0 * c / body.air_density_kg_m3, a / (test_mass_kg * body.gravity_m_s2), b, 0.0, 0.0)
+
+
+def drive_config(params: Params, body: Body, wheel: Wheel, engine: EngineMap, test_mass_kg: float) -> DriveConfig:
     """The scalars every design of a batch shares, for either car: chassis, road, brakes, fuel (one-second
-    step)."""
+    step). ``test_mass_kg``: the car's, which a coast-down's rolling term belongs to (:func:`road_load`)."""
     sim = params.sim
+    rl = road_load(body, wheel, test_mass_kg)
     return DriveConfig(
         dt=1.0,
         mu=sim.adhesion_coefficient,
         rho=body.air_density_kg_m3,
         g=body.gravity_m_s2,
-        cda=body.drag_coefficient * body.frontal_area_m2,
-        crr=wheel.rolling_resistance,
+        cda=rl.cda,
+        crr=rl.crr,
         r=wheel.radius_m,
-        axle0_nm=wheel.axle_drag_nm_at_0kg,
-        axle_per_kg_nm=wheel.axle_drag_nm_per_kg,
+        axle0_nm=rl.axle0_nm,
+        axle_per_kg_nm=rl.axle_per_kg_nm,
         h_over_l=body.cg_height_m / body.wheelbase_m,
         f_front=body.front_weight_fraction,
         brake_v_mps=np.ascontiguousarray(wheel.brake_speed_mps, float),
@@ -192,6 +230,7 @@ def drive_config(params: Params, body, wheel, engine: EngineMap) -> DriveConfig:
         j_wheel=wheel.inertia_kg_m2,
         j_eng=engine.inertia_kg_m2,
         off_trace_mps=sim.cycle_met_tolerance_kmh / 3.6,
+        k_lin=rl.k_lin,
     )
 
 
@@ -252,12 +291,12 @@ class KernelLibrary:
     def build(cls, lib: ComponentLibrary, params: Params) -> KernelLibrary:
         sim, base, pms = params.sim, params.baseline, params.pms
         e_h, e_c = engine_arrays(lib.engine_hybrid), engine_arrays(lib.engine_conventional)
+        m_conv, m_prius = base.conventional.test_mass_kg, base.prius.test_mass_kg
+        body_c, wheel_c = lib.body_conventional, lib.wheel_conventional
         configs = {
-            "hybrid": drive_config(params, lib.body_conventional, lib.wheel_conventional, lib.engine_hybrid),
-            "prius": drive_config(params, lib.body_prius, lib.wheel_prius, lib.engine_hybrid),
-            "conventional": drive_config(
-                params, lib.body_conventional, lib.wheel_conventional, lib.engine_conventional
-            ),
+            "hybrid": drive_config(params, body_c, wheel_c, lib.engine_hybrid, m_conv),
+            "prius": drive_config(params, lib.body_prius, lib.wheel_prius, lib.engine_hybrid, m_prius),
+            "conventional": drive_config(params, body_c, wheel_c, lib.engine_conventional, m_conv),
         }
         amb, cold = sim.ambient_c, sim.cold_correction == "advisor"
         thermal = {

@@ -10,6 +10,11 @@ evaluated at the step's mean speed ``v_avg``, so that with ``a = 2 (v_avg - v0) 
     F_traction + F_brake = m_eff * a + F_road(v_avg)
 
 holds exactly and the work done over the step, ``F * v_avg * dt``, balances the kinetic energy change.
+
+Road load: ``F_road = 1/2 rho CdA v^2 + m g cos(theta) crr + k_lin v + axle drag / r`` (moving only), plus the
+grade ``m g sin(theta)``. ``k_lin`` (N per m/s) is the linear term of a coast-down road load (the EPA target
+coefficient B, :mod:`hevlib.epa`); it is booked with rolling resistance, and it is 0 for a body given by drag
+coefficient and frontal area, where every force is bit for bit what it was without it (``x + 0.0 == x``).
 """
 
 from __future__ import annotations
@@ -34,16 +39,24 @@ class Chassis(NamedTuple):
     mu: float  # tyre-road adhesion coefficient
     rho: float  # air density, kg/m^3
     g: float  # gravity, m/s^2
+    k_lin: float  # linear road-load term (a coast-down's B), N per m/s; booked with rolling resistance
+
+
+@njit(cache=True, inline="always")
+def rolling_force(cos_t: float, c: Chassis) -> float:
+    """The speed-independent rolling resistance ``m g cos(theta) crr`` (N) of a moving vehicle."""
+    return c.m * c.g * cos_t * c.crr
 
 
 @njit(cache=True, inline="always")
 def road_force(v: float, sin_t: float, cos_t: float, c: Chassis) -> tuple[float, float, float, float]:
-    """(aero, rolling, grade, axle-drag) forces in N at speed ``v`` (rolling and drag only when moving)."""
+    """(aero, rolling, grade, axle-drag) forces in N at speed ``v`` (rolling and drag only when moving); rolling
+    includes the linear term ``k_lin v``."""
     f_grade = c.m * c.g * sin_t
     if v <= 0.0:
         return 0.0, 0.0, f_grade, 0.0
     f_aero = 0.5 * c.rho * c.cda * v * v
-    f_roll = c.m * c.g * cos_t * c.crr
+    f_roll = rolling_force(cos_t, c) + c.k_lin * v
     return f_aero, f_roll, f_grade, c.axle_drag_nm / c.r
 
 
@@ -70,16 +83,20 @@ def adhesion_limit(sin_t: float, cos_t: float, f_road: float, c: Chassis) -> flo
 def mean_speed_for_force(v0: float, f: float, sin_t: float, cos_t: float, dt: float, c: Chassis) -> float:
     """Mean speed over a step that starts at ``v0`` with net powertrain+brake force ``f``.
 
-    Solves ``f - F_road(v_avg) = 2 m_eff (v_avg - v0) / dt`` (aero quadratic in v_avg). The vehicle
-    does not roll back: if the force cannot hold it, the step ends at standstill (v_avg = v0 / 2).
+    Solves ``f - F_road(v_avg) = 2 m_eff (v_avg - v0) / dt`` (aero quadratic in v_avg; the linear road-load term
+    ``k_lin`` joins the inertia's linear coefficient). The vehicle does not roll back: if the force cannot hold
+    it, the step ends at standstill (v_avg = v0 / 2).
     """
     f_aero_k = 0.5 * c.rho * c.cda
-    _, f_roll, f_grade, f_axle = road_force(max(v0, 1e-9), sin_t, cos_t, c)
+    f_roll = rolling_force(cos_t, c)  # the moving vehicle's speed-independent terms (as road_force's at v > 0)
+    f_grade = c.m * c.g * sin_t
+    f_axle = c.axle_drag_nm / c.r
     b = 2.0 * c.m_eff / dt
-    rhs = f - f_roll - f_grade - f_axle + b * v0  # f_aero_k u^2 + b u = rhs
+    rhs = f - f_roll - f_grade - f_axle + b * v0  # f_aero_k u^2 + (b + k_lin) u = rhs
     if rhs <= 0.0:
         return 0.5 * v0 if v0 > 0.0 else 0.0
-    u = 2.0 * rhs / (b + math.sqrt(b * b + 4.0 * f_aero_k * rhs))
+    b_lin = b + c.k_lin
+    u = 2.0 * rhs / (b_lin + math.sqrt(b_lin * b_lin + 4.0 * f_aero_k * rhs))
     if 2.0 * u - v0 < 0.0:
         return 0.5 * v0
     return u
