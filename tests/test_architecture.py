@@ -47,6 +47,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "hevlib.components",
             "hevlib.cycles",
             "hevlib.doe",
+            "hevlib.epa",
             "hevlib.lookup",
             "hevlib.powers",
             "hevlib.scaling",
@@ -69,7 +70,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
         ),
     ),
     ("presentation", ("hevlib.explorer", "hevlib.plots")),
-    ("studies", ("hevlib.benchmark",)),  # the benchmark: runs every source, scores and draws them
+    ("studies", ("hevlib.benchmark", "hevlib.fleet")),  # the benchmark (every source) and the fleet (real cars)
     ("commands", ("stages.",)),  # `hev` and every stage command ("stages." : the whole package)
 )
 

@@ -29,9 +29,17 @@ COMMANDS = command_modules(REPO)  # the CLI's index, handed to the library (whic
 BIN = Path(sys.executable).parent
 
 
-def test_every_stage_declares_exactly_the_code_it_imports():
-    problems = check_deps(REPO, DVC_YAML, COMMANDS)
+@pytest.mark.parametrize("pipeline", ["dvc.yaml", "benchmarks/fleet/dvc.yaml", "benchmarks/robustness/dvc.yaml"])
+def test_every_stage_declares_exactly_the_code_it_imports(pipeline):
+    problems = check_deps(REPO, (REPO / pipeline).read_text(), COMMANDS)
     assert not problems, "\n".join(map(str, problems))
+
+
+def test_the_fleet_simulates_outside_the_default_pipeline():
+    """The fleet validation's stages import the simulator; no stage of the default pipeline imports the fleet."""
+    fleet = generated_deps(REPO, (REPO / "benchmarks/fleet/dvc.yaml").read_text(), COMMANDS)
+    assert "hevlib/sim" in fleet["simulate"] and "hevlib/fleet.py" in fleet["report"]
+    assert not [s for s, d in generated_deps(REPO, DVC_YAML, COMMANDS).items() if "hevlib/fleet.py" in d]
 
 
 def test_every_stage_runs_a_registered_command_module():
