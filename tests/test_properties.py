@@ -94,10 +94,11 @@ def test_conventional_car_converges_with_the_time_step(sim, cycles, cycle_name):
 @pytest.mark.xfail(
     strict=True,
     reason=(
-        "known defect: halving the step from 0.5 s to 0.25 s moves FTP fuel by up to 5 % (the stock Prius's engine "
-        "runs 882 / 891 / 917 s at 1 / 0.5 / 0.25 s steps, its shaft work 10.22 / 10.31 / 10.62 MJ). One cause "
-        "is found: the engine start is booked in the one step it happens in, so its electrical power grows as "
-        "1/dt; at 0.125 s it exceeds the pack's discharge limit and the Prius's engine never starts on FTP"
+        "known defect (issue 52; docs/model.md, benchmarks/step_convergence.py): a 0.25 s step moves hybrid FTP "
+        "fuel by up to 16 % against 1 s (L27 designs), and at 0.1 s the stock Prius fails FTP. Two causes, "
+        "measured: the engine start is booked in the one step it happens in, so its power grows as 1/dt; and the "
+        "carrier speeds up as fast as the generator can, so at short steps its inertia takes the engine's whole "
+        "torque and the step falls short of the trace"
     ),
 )
 def test_hybrid_converges_with_the_time_step(sim, cycles, designs):
