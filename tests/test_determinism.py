@@ -87,12 +87,25 @@ def test_pinned_primitives_give_the_same_bytes_on_both_cpu_kinds(probes):
     assert {k for k in a if a[k] != b[k]} == set()
 
 
+def _host_has_avx512() -> bool:
+    """Whether this CPU has AVX-512 (Linux's /proc/cpuinfo flags)."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            return any(line.startswith("flags") and " avx512f" in line for line in f)
+    except OSError:
+        return False
+
+
 def test_without_the_pins_the_emulated_kinds_round_differently(probes):
-    """The emulation is real: numpy's kernels, BLAS, LAPACK under torch and glibc's libm (numba's kernels call it)
-    each change some bytes unpinned."""
+    """The emulation is real: what the ``avx2_nofma`` kind changes on every host changes bytes unpinned (glibc's
+    libm without FMA under numpy's and numba's kernels); on an AVX-512 host its AVX2 ceiling changes numpy's sort,
+    BLAS and LAPACK (under torch too). A host without AVX-512 (an AMD Zen 2) already runs those at the AVX2 level, so
+    there the kind cannot change them, and the test asks only what the kind itself guarantees."""
     a, b = (probes[(name, False)] for name in CPU_KINDS)
     differ = {k for k in a if k != "problems" and a[k] != b[k]}
-    assert {"exp", "log", "power", "argsort_ties", "matmul", "solve", "math_pow", "numba", "torch_cholesky"} <= differ
+    assert {"exp", "log", "power", "math_pow", "numba"} <= differ
+    if _host_has_avx512():
+        assert {"argsort_ties", "matmul", "solve", "torch_cholesky"} <= differ
     assert probes[("host", False)]["problems"] == []  # switched off: nothing is claimed
 
 
