@@ -244,29 +244,48 @@ def _car_key(row: pd.Series) -> tuple:
     return (row[epa.MAKE], row[epa.MODEL], row[epa.VEHICLE_ID], int(row[epa.CONFIG]), *row[list(epa.CAR_VALUES)])
 
 
-def predict_cases(raw: dict, cases: pd.DataFrame, cycles: dict, progress=None) -> pd.DataFrame:
-    """:func:`predict_car` for every car of ``cases`` (:func:`select_tests`; the tests of a car that agree on its
-    values share one simulator), one row per case: ``case_id`` and the predicted figures, or ``status`` with
-    the reason a case could not be simulated (a car outside the params' ranges, a hybrid that did not balance)."""
+def _predict_group(raw: dict, g: pd.DataFrame, cycles: dict) -> list[dict]:
+    """The rows of :func:`predict_cases` for the tests of one car."""
+    first = g.iloc[0]
+    car = car_of(first, epa.POWER_SPLIT if first["powertrain"] == "power_split" else epa.CONVENTIONAL)
+    cats = list(dict.fromkeys(g[COL_CATEGORY]))
+    try:
+        pred = predict_car(raw, car, cats, cycles)
+        status = {cat: "ok" for cat in cats}
+    except (ValueError, FloatingPointError) as err:
+        pred, status = {}, {cat: str(err).splitlines()[0] for cat in cats}
     rows = []
-    groups = list(cases.groupby(cases.apply(_car_key, axis=1), sort=False))
-    for k, (_, g) in enumerate(groups):
-        first = g.iloc[0]
-        car = car_of(first, epa.POWER_SPLIT if first["powertrain"] == "power_split" else epa.CONVENTIONAL)
-        cats = list(dict.fromkeys(g[COL_CATEGORY]))
-        try:
-            pred = predict_car(raw, car, cats, cycles)
-            status = {cat: "ok" for cat in cats}
-        except (ValueError, FloatingPointError) as err:
-            pred, status = {}, {cat: str(err).splitlines()[0] for cat in cats}
-        for _, row in g.iterrows():
-            cat = row[COL_CATEGORY]
-            rec = {"case_id": row["case_id"], **pred.get(cat, {})}
-            rec["status"] = status[cat] if pred.get(cat, {}).get("charge_balanced", True) else "did not balance"
-            rows.append(rec)
-        if progress is not None:
-            progress(k + 1, len(groups))
-    return pd.DataFrame(rows)
+    for _, row in g.iterrows():
+        cat = row[COL_CATEGORY]
+        rec = {"case_id": row["case_id"], **pred.get(cat, {})}
+        rec["status"] = status[cat] if pred.get(cat, {}).get("charge_balanced", True) else "did not balance"
+        rows.append(rec)
+    return rows
+
+
+def predict_cases(raw: dict, cases: pd.DataFrame, cycles: dict, progress=None, jobs: int = 1) -> pd.DataFrame:
+    """:func:`predict_car` for every car of ``cases`` (:func:`select_tests`; the tests of a car that agree on its
+    values share one simulator), one row per case in ``cases``' order: ``case_id`` and the predicted figures, or
+    ``status`` with the reason a case could not be simulated (a car outside the params' ranges, a hybrid that did
+    not balance). ``jobs`` processes share the cars (each car is simulated alone: the result is the same)."""
+    groups = [g for _, g in cases.groupby(cases.apply(_car_key, axis=1), sort=False)]
+    done: list[list[dict]] = []
+    if jobs <= 1:
+        for g in groups:
+            done.append(_predict_group(raw, g, cycles))
+            if progress is not None:
+                progress(len(done), len(groups))
+    else:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+            for rows in pool.map(_predict_group, [raw] * len(groups), groups, [cycles] * len(groups), chunksize=8):
+                done.append(rows)
+                if progress is not None:
+                    progress(len(done), len(groups))
+    order = {c: i for i, c in enumerate(cases["case_id"])}
+    return pd.DataFrame(sorted((r for rows in done for r in rows), key=lambda r: order[r["case_id"]]))
 
 
 def results_table(cases: pd.DataFrame, predicted: pd.DataFrame, fastsim: pd.DataFrame | None) -> pd.DataFrame:

@@ -36,6 +36,7 @@ def _write_csv(frame, path: Path) -> None:
 def fleet(
     action: str = typer.Argument(..., help="cases (select the tests), simulate (drive them) or report"),
     params: str = PARAMS_OPTION,
+    jobs: int = typer.Option(2, "--jobs", min=1, help="simulate: processes that share the cars (same result)"),
 ) -> None:
     """The fleet validation: select EPA's tests of real cars (``cases``), simulate each from the row's own figures
     (``simulate``), and report predicted against measured fuel economy beside FASTSim 2.1.5 (``report``)."""
@@ -63,7 +64,7 @@ def fleet(
         cases = pd.read_csv(CASES, dtype={**fl.epa.COLUMNS, **fl.MEASURED}, keep_default_na=False, na_values=[""])
         t0 = time.perf_counter()
         with progress_callback("fleet: simulating") as progress:
-            predicted = fl.predict_cases(raw, cases, build_cycles(params_from(params).cycles), progress)
+            predicted = fl.predict_cases(raw, cases, build_cycles(params_from(params).cycles), progress, jobs)
         _write_csv(predicted, PREDICTED)
         ok = int((predicted["status"] == "ok").sum())
         typer.echo(

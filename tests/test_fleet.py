@@ -132,3 +132,17 @@ def test_the_fleet_command_refuses_an_unknown_action_in_one_line():
     assert out.exit_code == 1
     lines = out.stderr.strip().splitlines()
     assert lines == ["error: fleet: unknown action 'everything' (use cases, simulate or report)"]
+
+
+def test_the_cars_simulate_the_same_in_one_process_or_two(selection, params, cycles):
+    raw = yaml.safe_load((REPO / "params.yaml").read_text())
+    raw["cycles"]["raw_dir"] = params.cycles.raw_dir
+    raw["baseline"]["components_dir"] = params.baseline.components_dir
+    c = selection.cases
+    some = pd.concat(
+        [c[(c[epa.MODEL].str.upper() == m) & (c[epa.CATEGORY] == "HWY")].head(1) for m in ("VERSA", "PRIUS", "COROLLA")]
+    )
+    one = fleet.predict_cases(raw, some, cycles)
+    two = fleet.predict_cases(raw, some, cycles, jobs=2)
+    assert list(one["case_id"]) == list(some["case_id"]) and (one["status"] == "ok").all()
+    pd.testing.assert_frame_equal(one, two)
