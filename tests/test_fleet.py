@@ -30,6 +30,15 @@ def selection(tests_table) -> fleet.Selection:
     return fleet.select_tests(tests_table)
 
 
+@pytest.fixture
+def raw(params) -> dict:
+    """The repository's params mapping as the fleet reads it, its data paths absolute (tests run from anywhere)."""
+    data = yaml.safe_load((REPO / "params.yaml").read_text())
+    data["cycles"]["raw_dir"] = params.cycles.raw_dir
+    data["baseline"]["components_dir"] = params.baseline.components_dir
+    return data
+
+
 def test_the_ftp_composite_reproduces_epa_from_its_own_bags(tests_table):
     """40 CFR 600.113's 0.43 / 0.57 weighting of (bag 1 + bag 2) and (bag 3 + bag 2) turns each 3-bag FTP's bag
     figures into the list's own unadjusted FTP figure; a plain distance-weighted mean (a wrong formula) does not."""
@@ -104,12 +113,9 @@ def test_a_twin_pair_saving_is_the_fuel_per_distance_the_hybrid_saves():
     assert fleet.fuel_saving_pct(30.0, 60.0) == pytest.approx(50.0)  # twice the mpg: half the fuel
 
 
-def test_a_real_car_drives_its_certification_tests(selection, params, cycles):
+def test_a_real_car_drives_its_certification_tests(selection, raw, cycles):
     """The 2022 Corolla's FTP and HWFET from its rows: both traces met, the FTP's composite between its bags, the
     cold bag 1 burning more than the hot bag 3, HWFET better than FTP; 300 kg more costs fuel."""
-    raw = yaml.safe_load((REPO / "params.yaml").read_text())
-    raw["cycles"]["raw_dir"] = params.cycles.raw_dir
-    raw["baseline"]["components_dir"] = params.baseline.components_dir
     rows = selection.cases[selection.cases[epa.MODEL].str.upper() == "COROLLA"]
     row = rows[rows[epa.CATEGORY] == "FTP"].iloc[0]
     car = fleet.car_of(row, epa.CONVENTIONAL)
@@ -134,10 +140,7 @@ def test_the_fleet_command_refuses_an_unknown_action_in_one_line():
     assert lines == ["error: fleet: unknown action 'everything' (use cases, simulate or report)"]
 
 
-def test_the_cars_simulate_the_same_in_one_process_or_two(selection, params, cycles):
-    raw = yaml.safe_load((REPO / "params.yaml").read_text())
-    raw["cycles"]["raw_dir"] = params.cycles.raw_dir
-    raw["baseline"]["components_dir"] = params.baseline.components_dir
+def test_the_cars_simulate_the_same_in_one_process_or_two(selection, raw, cycles):
     c = selection.cases
     some = pd.concat(
         [c[(c[epa.MODEL].str.upper() == m) & (c[epa.CATEGORY] == "HWY")].head(1) for m in ("VERSA", "PRIUS", "COROLLA")]
