@@ -194,8 +194,8 @@ class RawTrace(NamedTuple):
 
 def read_raw_trace(path: str | Path) -> RawTrace:
     """Read a raw cycle CSV: ``time_s``, one speed column with its unit in the name (``RAW_SPEED_UNITS``) and
-    optionally one grade column (``RAW_GRADE_UNITS``). A bad file raises one line naming the file, the column
-    and the line."""
+    optionally one grade column (``RAW_GRADE_UNITS``); any other column is refused. A bad file raises one line
+    naming the file, the column and the line."""
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"{path}: cycle file missing")
@@ -217,6 +217,18 @@ def read_raw_trace(path: str | Path) -> RawTrace:
     if unknown or len(grade_cols) > 1:
         what = f"unknown unit in {unknown[0]!r}" if unknown else f"{len(grade_cols)} grade columns"
         raise CycleError(f"{path}: {what}, expected at most one of {', '.join(RAW_GRADE_UNITS)}")
+    extra = [c for c in df.columns if c != "time_s" and c not in RAW_SPEED_UNITS and c not in RAW_GRADE_UNITS]
+    if extra:  # read strictly: a misspelt or stray column is refused, not silently ignored
+        name = str(extra[0])  # pandas names a header's empty field "Unnamed: <index>" (a trailing comma?)
+        what = (
+            f"column {name!r}"
+            if not name.startswith("Unnamed: ")
+            else f"column {list(df.columns).index(name) + 1} (no name)"
+        )
+        raise CycleError(
+            f"{path}: unknown {what}; a raw cycle takes time_s, one speed column ({', '.join(RAW_SPEED_UNITS)}) "
+            f"and at most one grade column ({', '.join(RAW_GRADE_UNITS)})"
+        )
     col = speed_cols[0]
     time_s = pd.to_numeric(df["time_s"], errors="coerce").to_numpy(dtype=float)
     speed = pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float) * RAW_SPEED_UNITS[col]

@@ -11,10 +11,11 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from hevlib.design import DESIGN_VARS, UNITS
+from hevlib.design import DESIGN_VARS, OBJECTIVES, UNITS
 from hevlib.recommend import FAMILY_SHARE
-from hevlib.results import ParetoSummary, Pick, Recommendation, ValidationSummary
-from hevlib.validation import ALL, BASELINE_ALGO, IMPROVEMENT_RESPONSES, SOC_POINTS
+from hevlib.results import ParetoSummary, Pick, Recommendation, Trust, ValidationSummary
+from hevlib.validation import ALL, BASELINE_ALGO, IMPROVEMENT_RESPONSES, SOC_POINTS, found_by
+from hevlib.validation.trust import MODELS, R2_BELOW
 
 #: The study's headline against the conventional car on FTP (SPEC section 1).
 STUDY_HEADLINE = {
@@ -183,7 +184,14 @@ def _pareto_section(pareto: ParetoSummary) -> list[str]:
     return out
 
 
-def _designs_table(table: pd.DataFrame, selected: pd.DataFrame, cycle: str, fails: Mapping) -> str:
+def _algo_cell(algo: str, trust: Trust | None) -> str:
+    """The source(s) that found a design, marked where every one of them is flagged (:func:`_trust_lines`)."""
+    return f"{algo} **(flagged)**" if found_by(algo, trust)[1] else str(algo)
+
+
+def _designs_table(
+    table: pd.DataFrame, selected: pd.DataFrame, cycle: str, fails: Mapping, trust: Trust | None = None
+) -> str:
     rows = table[table["cycle"] == cycle]
     role = (
         dict(zip(selected["design_id"].astype(str), selected["pick_role"], strict=True))
@@ -206,7 +214,7 @@ def _designs_table(table: pd.DataFrame, selected: pd.DataFrame, cycle: str, fail
     body = [
         [
             v,
-            r["algo"],
+            r["algo"] if v in ("prius", "conventional") else _algo_cell(r["algo"], trust),
             rank.get(v),
             role.get(v) or "",
             *[r[x] for x in DESIGN_VARS],
@@ -314,22 +322,25 @@ def _equivalents_lines(rec: Recommendation) -> list[str]:
 
 
 def _seed_spread_lines(validation: ValidationSummary, robustness: Mapping | None) -> list[str]:
-    """The headline's seed spread next to this run's single-seed figures (``hev robustness``)."""
+    """The headline's seed spread next to this run's single-seed figures (``hev robustness``): only from a study
+    made with this run's settings and code (``robustness["current"]``); else one line saying how to make it."""
     out = ["### Across seeds (the seed spread of this answer)", ""]
     if not robustness:
         return out + [
             "No robustness study on disk: `dvc repro benchmarks/robustness/dvc.yaml` measures the seed spread.",
             "",
         ]
+    if not robustness.get("current"):
+        return out + [
+            "The seed-spread study on disk (`reports/robustness/summary.json`) was made with other settings or code "
+            "(another car, cycle, profile or commit), so none of its figures are shown here: "
+            "`dvc repro benchmarks/robustness/dvc.yaml` measures the seed spread of this run.",
+            "",
+        ]
     n = robustness["replicates"]
     rec = validation.recommendation
     this = rec.design.design_id if rec is not None and rec.design is not None else None
-    status = (
-        "made with these settings and code"
-        if robustness.get("current")
-        else "**made with other settings or code** (e.g. the default profile): rerun "
-        "`dvc repro benchmarks/robustness/dvc.yaml` for figures of this run"
-    )
+    status = "made with these settings and code"
     rows = []
     for key, label in (
         ("rec_fc_cb_pct", "recommended design's charge-balanced saving vs conventional [%]"),
@@ -379,6 +390,86 @@ def _seed_spread_lines(validation: ValidationSummary, robustness: Mapping | None
     return out
 
 
+def _r2_cell(v) -> str:
+    """A held-out R², bold where below :data:`~hevlib.validation.trust.R2_BELOW` (worse than a constant)."""
+    if v is None:
+        return "n/a"
+    text = _fmt(float(v), 2)
+    return f"**{text}**" if v < R2_BELOW else text
+
+
+def _trust_lines(validation: ValidationSummary) -> list[str]:
+    """Trust of each source in the answer: every surrogate's held-out R² per objective, flagged cells, and a
+    line per merged source (what it searched on; flagged where that model is worse than a constant on an
+    objective it optimises; not measured where nothing measures it)."""
+    trust = validation.trust
+    if trust is None:
+        return []
+    n = trust.n_heldout
+    rows = []
+    for split, table, what in (
+        ("heldout", trust.r2, "all {n} held-out designs"),
+        ("heldout_followers", trust.r2_followers, "the {n} that follow the cycle"),
+    ):
+        for model, r2 in table.items():
+            rows.append(
+                [f"{MODELS.get(model, model)}, {what.format(n=n.get(split, 'n/a'))}"]
+                + [_r2_cell(r2.get(o)) for o in OBJECTIVES]
+            )
+    out = [
+        "## Trust of each source",
+        "",
+        "Every pick's figures are simulated and hold; what the model a source searched on decides is whether the "
+        "front it handed on lies near the best designs. Held-out R² of the surrogates (`"
+        + trust.metrics
+        + "`: the models fitted on every DOE design, which round 0 of every surrogate-assisted optimiser searches; "
+        "infill rounds refit them on more designs, which nothing judges on held-out designs). **Bold**: below "
+        f"{R2_BELOW:g}, worse than predicting the held-out designs' mean. The rule, on all held-out designs (the "
+        f"first rows): {trust.rule}.",
+        "",
+    ]
+    if rows:
+        out += [markdown_table(["model (held-out designs)", *OBJECTIVES], rows), ""]
+    else:
+        out += ["No held-out metrics of the surrogates on disk: `hev surrogates` writes them.", ""]
+    for name, t in trust.sources.items():
+        out.append(f"- **{name}** ({t.searched_on}): " + ("**flagged**: " if t.flagged else "") + t.note + ".")
+    flagged = trust.flagged
+    out += [
+        "",
+        (
+            f"**Flagged: {', '.join(flagged)}.** Their fronts were merged with the others'; a pick from them is the "
+            "best design their models led to, not necessarily the best there is -- trust it as far as the oracle "
+            "or another sound source finds designs like it."
+        )
+        if flagged
+        else "No source is flagged: no surrogate is worse than a constant on an objective its source optimises.",
+        "",
+    ]
+    return out
+
+
+def _trust_line(d: Pick, trust: Trust | None) -> list[str]:
+    """Which source(s) the recommended design comes from and how far their models can be trusted."""
+    if trust is None:
+        return []
+    names = [a for a in str(d.algo).split("+") if a in trust.sources]
+    if not names:
+        return []
+    flagged = found_by(d.algo, trust)[1]
+    return [
+        ("**Trust: flagged.** " if flagged else "Trust: ")
+        + "; ".join(f"From {trust.sources[a].searched_on}: {trust.sources[a].note}" for a in names)
+        + (
+            ". Its figures below are simulated, but the front it came from may lie far from the best designs "
+            "(see Trust of each source)."
+            if flagged
+            else "."
+        ),
+        "",
+    ]
+
+
 def _build_this(validation: ValidationSummary, pareto: ParetoSummary, robustness: Mapping | None = None) -> list[str]:
     rec = validation.recommendation
     if not rec:
@@ -388,8 +479,10 @@ def _build_this(validation: ValidationSummary, pareto: ParetoSummary, robustness
     if d is None:
         return out + ["> No design could be recommended: no pick has finite validation figures.", ""]
     out += [
-        f"**{d.design_id}** (found by {d.algo}, rank {d.rank} of the kept designs): {_design_line(d)}.",
+        f"**{d.design_id}** (found by {found_by(d.algo, validation.trust)[0]}, rank {d.rank} of the kept designs): "
+        f"{_design_line(d)}.",
         "",
+        *_trust_line(d, validation.trust),
         f"Why this one: the {rec.preference} ({rec.eligible} of the {validation.counts.picked} picks"
         + (")." if rec.pool_rule == "eligible" else f"; {rec.pool_rule})."),
         "",
@@ -449,7 +542,8 @@ def _build_this(validation: ValidationSummary, pareto: ParetoSummary, robustness
     best = rec.best
     if best:
         out += [
-            "### The best pick of each objective group (same cycle, same eligibility)",
+            f"### The best pick of each objective group on {validation.cycle} (same eligibility; the `role` column "
+            "of Selected designs names each design's role on the sizing cycle, where the pareto stage chose it)",
             "",
             markdown_table(
                 [
@@ -554,6 +648,7 @@ def build_summary(
         "# hev-sizing: selection and validation summary",
         "",
         *_build_this(validation, pareto, robustness),
+        *_trust_lines(validation),
         "## How to read the rest",
         "",
         "Generated by `hev validate` (do not edit): improvements are means over the picked designs, "
@@ -633,11 +728,14 @@ def build_summary(
     out += [
         f"## Selected designs ({cycle} results)",
         "",
-        "`role`: why the shortlist holds a design (knee, best of a group; blank: farthest-point fill); `fails`: "
+        "`role`: why the shortlist holds a design, on the sizing cycle where the pareto stage chose it (knee, best "
+        f"of a group there, which need not be the best on {cycle}; blank: farthest-point fill); `fails`: "
         "the validation cycles a vehicle did not follow (more than "
-        "`sim.cycle_met_tolerance_kmh` off the trace, or stalled) -- marked wherever the design appears.",
+        "`sim.cycle_met_tolerance_kmh` off the trace, or stalled) -- marked wherever the design appears; "
+        "`algo`: the source(s) that found it, **(flagged)** where every one searched a model worse than a constant "
+        "on an objective it optimises (Trust of each source).",
         "",
-        _designs_table(table, selected, cycle, fails),
+        _designs_table(table, selected, cycle, fails, validation.trust),
         "",
     ]
     out += _pareto_section(pareto) + [""]

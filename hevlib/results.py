@@ -23,6 +23,9 @@ OMIT_NONE = {"omit_none": True}
 #: A response's figure, or None where it is undefined (e.g. a SOC figure against the conventional car).
 Figure = float | None
 
+#: ``ValidationSummary.seed_spread_status`` where no seed-spread study is on disk.
+SEED_SPREAD_NOT_MEASURED = "not measured: `dvc repro benchmarks/robustness/dvc.yaml` measures the seed spread"
+
 
 def to_json(obj: Any) -> Any:
     """``obj`` as plain JSON types: dataclasses as objects in field order, mappings and sequences recursively."""
@@ -248,10 +251,45 @@ class Counts:
 
 
 @dataclass(frozen=True)
+class SourceTrust:
+    """How far one source's picks can be trusted: what it searched on (``model``: ``bnn``, ``regression``,
+    ``gp``, ``simulator`` or ``unknown``), the objectives it optimises, that model's held-out R² on each (None:
+    not measured) and the objectives on which it is worse than a constant (held-out R² below 0). ``flagged``: at
+    least one such objective."""
+
+    source: str
+    searched_on: str
+    model: str
+    objectives: list[str]
+    heldout_r2: dict[str, Figure] | None
+    worse_than_constant: list[str]
+    flagged: bool
+    note: str
+
+
+@dataclass(frozen=True)
+class Trust:
+    """The trust of each source in the answer: every surrogate's held-out R² per objective (the surrogates
+    stage's ``reports/surrogate_metrics.json``; ``r2``: every held-out design, the one the rule reads;
+    ``r2_followers``: the held-out designs that follow the sizing cycle), the rule, each merged source and the
+    flagged ones (a surrogate worse than a constant on an objective it optimises)."""
+
+    metrics: str
+    split: str
+    rule: str
+    n_heldout: dict[str, int]
+    r2: dict[str, dict[str, Figure]]
+    r2_followers: dict[str, dict[str, Figure]]
+    sources: dict[str, SourceTrust]
+    flagged: list[str]
+
+
+@dataclass(frozen=True)
 class ValidationSummary:
     """``reports/validation.json``: the picks against both baselines on the headline cycle (improvement tables
     per source, in %; ``all`` = every pick), counts, engine downsizing, absolute means, the other cycles'
-    tables, and the recommendation."""
+    tables, the recommendation, the trust of each source (its model's held-out quality) and the seed spread
+    (null unless the robustness study was made with this run's settings and code)."""
 
     cycle: str
     improvement: dict[str, dict[str, dict[str, Figure]]]
@@ -264,10 +302,17 @@ class ValidationSummary:
     by_cycle: dict[str, dict[str, Any]]
     best_design: str | None
     recommendation: Recommendation | None = field(default=None, metadata=OMIT_NONE)
+    #: each merged source's trust (:class:`Trust`), where the stage read the surrogates' held-out metrics
+    trust: Trust | None = field(default=None, metadata=OMIT_NONE)
+    #: the seed-spread study's figures, only where it was made with this run's settings and code (else null)
+    seed_spread: dict[str, Any] | None = None
+    #: whether ``seed_spread`` holds this run's figures, and if not, how to make them
+    seed_spread_status: str = SEED_SPREAD_NOT_MEASURED
 
 
 __all__ = [
     "OMIT_NONE",
+    "SEED_SPREAD_NOT_MEASURED",
     "Counts",
     "Equivalent",
     "HighwayRule",
@@ -278,7 +323,9 @@ __all__ = [
     "Pick",
     "Selection",
     "SourceSummary",
+    "SourceTrust",
     "Recommendation",
+    "Trust",
     "ValidationSummary",
     "from_json",
     "to_json",

@@ -7,7 +7,8 @@ from __future__ import annotations
 import functools
 import os
 import sys
-from collections.abc import Callable, Iterator
+import warnings
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -24,13 +25,49 @@ BENCHMARK_RUNS_DIR = Path("data/benchmark/runs")
 _OPEN: list = []  # what a running stage opened (a simulator's executor: a Dask cluster): closed with it
 
 
+def warning_lines(caught: Sequence[warnings.WarningMessage]) -> list[str]:
+    """One line per warning category, in the order each first appeared: the category, how many times it was
+    caught (as Python would have shown them: a warning repeated from one place under the default filter, once)
+    and the first line of its first message (BoTorch's ``InputDataWarning`` spans several lines)."""
+    first: dict[type, tuple[int, str]] = {}
+    for w in caught:
+        n, text = first.get(w.category, (0, None))
+        if text is None:
+            lines = str(w.message).strip().splitlines()
+            text = lines[0].strip() if lines else ""
+        first[w.category] = (n + 1, text)
+    return [
+        f"warning: {cat.__module__.split('.')[0]}.{cat.__name__} x{n}: {text}"
+        if cat.__module__ != "builtins"
+        else f"warning: {cat.__name__} x{n}: {text}"
+        for cat, (n, text) in first.items()
+    ]
+
+
+@contextmanager
+def summarised_warnings(echo: Callable[[str], None] | None = None) -> Iterator[list[warnings.WarningMessage]]:
+    """Catch the warnings raised inside (library ones: BoTorch, scikit-learn, torch...) and, on leaving, echo
+    :func:`warning_lines` (to stderr by default) instead of each multi-line warning. The filters in force stay as
+    they are: an ignored warning stays ignored, one turned into an error still raises. Warnings raised in other
+    processes (a Dask worker's) are theirs to print."""
+    echo = echo or functools.partial(typer.echo, err=True)
+    with warnings.catch_warnings(record=True) as caught:
+        try:
+            yield caught
+        finally:  # also when the stage fails: what it warned of may be why
+            for line in warning_lines(caught):
+                echo(line)
+
+
 def stage(fn: Callable) -> Callable:
-    """Wrap a stage command: any known input error becomes one line on stderr and exit code 1."""
+    """Wrap a stage command: any known input error becomes one line on stderr and exit code 1; the warnings it
+    raised become one line each (:func:`summarised_warnings`)."""
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
         try:
-            return fn(*args, **kwargs)
+            with summarised_warnings():
+                return fn(*args, **kwargs)
         except (ParamsError, ValueError, OSError, KeyError) as err:
             msg = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
             typer.echo(f"error: {msg}", err=True)

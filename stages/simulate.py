@@ -35,7 +35,8 @@ def simulate(
     ),
     params: str = PARAMS_OPTION,
 ) -> None:
-    """Simulate designs (or a baseline) and write the inputs plus every response, one row per design."""
+    """Simulate designs (or a baseline) and write the inputs plus every response, one row per design; a design
+    that did not drive the cycle gets no per-km figure (column not_earned says why) and a warning on stderr."""
     p = params_from(params)  # every input is checked before the simulator (numba) is loaded
     if vehicle not in VEHICLES:
         raise ValueError(f"--vehicle: {vehicle!r} is not one of {', '.join(VEHICLES)}")
@@ -64,6 +65,7 @@ def simulate(
     import numpy as np
     import pandas as pd
 
+    from hevlib.earned import mark_unearned, unearned_warning
     from hevlib.io import write_table
     from hevlib.sim.simulator import with_inputs
 
@@ -80,8 +82,14 @@ def simulate(
     if trace is not None:
         traces = sim.trace(X if vehicle == "hybrid" else None, cyc, vehicle)
         traces.insert(0, "vehicle", vehicle)
-    write_table(out, pd.DataFrame(table))
+    # a design that did not drive the cycle keeps no per-km figure here (the simulator's own responses, which
+    # the pipeline ranks on, are unchanged): empty, with the reason in column not_earned, and one warning line
+    table = mark_unearned(pd.DataFrame(table), distance_m=cyc.distance_m, sim=p.sim)
+    write_table(out, table)
     if traces is not None:
         write_table(trace, traces)
     wrote = f"{out}" + (f" and {trace}" if traces is not None else "")
     typer.echo(f"simulate: {len(table)} {'design' if vehicle == 'hybrid' else vehicle}(s) on {cycle} -> wrote {wrote}")
+    warning = unearned_warning(table, cycle=cycle, sim=p.sim, vehicle=vehicle)
+    if warning is not None:
+        typer.echo(warning, err=True)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import typer
@@ -104,3 +105,21 @@ def surrogates_stage(params: str = PARAMS_OPTION) -> None:
         "held-out R^2, Spearman rho (all held-out designs and the followers, fol.) and BNN 2-sigma coverage:\n"
         + summary_table(metrics).to_string(float_format=lambda v: f"{v:.3f}")
     )
+    worse = _worse_than_constant(metrics)
+    if worse:
+        typer.echo(
+            "surrogates: worse than a constant on the held-out designs (R^2 < 0): "
+            + "; ".join(f"{name} on {', '.join(objs)}" for name, objs in worse.items())
+            + " -- `hev validate` flags the sources that optimise on them (summary.md: Trust of each source)"
+        )
+
+
+def _worse_than_constant(metrics: dict) -> dict[str, list[str]]:
+    """``{model: [objective, ...]}`` where the model's held-out R² is below 0 (hevlib.validation.trust's rule)."""
+    out = {}
+    for name in ("bnn", "regression"):
+        r2 = {o: metrics.get(name, {}).get("heldout", {}).get(o, {}).get("r2") for o in OBJECTIVES}
+        objs = [o for o, v in r2.items() if isinstance(v, float | int) and math.isfinite(v) and v < 0]
+        if objs:
+            out[name] = objs
+    return out

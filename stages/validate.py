@@ -25,6 +25,7 @@ from hevlib.validation import (
     prius_design,
     recommendation,
     simulate_twins,
+    source_trust,
     summarise,
     traces,
     twins_schema,
@@ -47,6 +48,8 @@ EXPLORER = Path("reports/explorer.html")
 MERGED = Path("data/pareto/merged.parquet")
 PLOTS_DIR = Path("reports/plots/validation")
 ROBUSTNESS = Path("reports/robustness/summary.json")  # the seed spread (`hev robustness report`), if measured
+SURROGATE_METRICS = Path("reports/surrogate_metrics.json")  # the surrogates' held-out quality (`hev surrogates`)
+OPTIMISE_REPORT = "reports/optimise_{}.json"  # what each source searched on (`hev optimise <source>`)
 
 
 def _robustness(params_path: str) -> dict | None:
@@ -55,6 +58,16 @@ def _robustness(params_path: str) -> dict | None:
         return None
     summary = json.loads(ROBUSTNESS.read_text())
     return {**summary, "current": summary.get("fingerprint") == settings_fingerprint(params_path)[1]}
+
+
+def _read_json(path: Path) -> dict | None:
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def _trust(sources: list[str]):
+    """Each merged source's trust: its model's held-out quality (:func:`hevlib.validation.source_trust`)."""
+    reports = {s: _read_json(Path(OPTIMISE_REPORT.format(s))) for s in sources}
+    return source_trust(_read_json(SURROGATE_METRICS), reports, sources, SURROGATE_METRICS.as_posix())
 
 
 @app.command("validate")
@@ -83,7 +96,10 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     rec = recommendation(table, selected, names, params.screen, params.design_space, twins, eq)
     if rec.design is not None and names[0] == "ftp":
         rec = rec.with_ftp_bags(ftp_bags(sim, table, selected, rec.design.design_id, cycles[0], prius_x))
-    summary = summarise(table, algos, names, params.baseline.conventional.p_eng_kw, rec)
+    robustness = _robustness(params_path)
+    summary = summarise(
+        table, algos, names, params.baseline.conventional.p_eng_kw, rec, _trust(algos), robustness=robustness
+    )
 
     figures = {
         f"improvement_{c}.png": improvement_figure(
@@ -115,7 +131,7 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
         if f"catalyst_{names[0]}.png" in figures:
             caption = f"{names[0]} cold start: catalyst warm-up of recommended design {best} against both baselines"
             plots[caption] = f"plots/validation/catalyst_{names[0]}.png"
-    text = build_summary(pareto, summary, table, selected, plots, notes, _robustness(params_path))
+    text = build_summary(pareto, summary, table, selected, plots, notes, robustness)
 
     write_parquet(TABLE, table, validation_schema())
     write_parquet(TWINS, twins, twins_schema())
@@ -130,10 +146,12 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     for name, fig in figures.items():
         save_figure(fig, PLOTS_DIR / name)
     write_text(SUMMARY, text)
+    flagged = summary.trust.flagged if summary.trust is not None else []
     typer.echo(
         f"validate: {summary.counts.picked} picks on {', '.join(names)}; recommended "
         f"{best if rec.design is not None else 'none'}"
         + (f" (near-equivalents: {', '.join(equivalents)})" if equivalents else "")
+        + (f"; flagged sources (surrogate worse than a constant): {', '.join(flagged)}" if flagged else "")
         + f" -> wrote {TABLE}, {METRICS}, {HEADLINE}, {ANSWER}, "
         f"{SUMMARY}, {EXPLORER}"
     )

@@ -107,3 +107,23 @@ def cycles(params: Params) -> dict:
 def raw() -> Path:
     """``data/raw`` of this checkout (git-tracked inputs)."""
     return RAW
+
+
+@pytest.fixture()
+def stage_dir(tmp_path, monkeypatch, lib, params, root):
+    """A working folder holding what `hev simulate` reads: data/cycles and data/components."""
+    from hevlib.cycles import build_cycles, write_cycles
+
+    monkeypatch.chdir(tmp_path)
+    write_cycles(build_cycles(params.cycles), tmp_path / "data/cycles", tmp_path / "reports/cycles.json")
+    lib.save(tmp_path / "data/components")
+    (tmp_path / "params.yaml").write_text((root / "params.yaml").read_text())
+    return tmp_path
+
+
+@pytest.fixture()
+def project(tmp_path, monkeypatch, root) -> Path:
+    """A working folder holding only this checkout's params.yaml (for commands that write a profile)."""
+    shutil.copy(root / "params.yaml", tmp_path / "params.yaml")
+    monkeypatch.chdir(tmp_path)
+    return tmp_path

@@ -101,3 +101,53 @@ def test_a_bad_params_file_stops_a_stage_before_its_module_loads(tmp_path, comma
     assert heavy == set()  # not even pandas: the stage's module was never imported
     out, _ = _hev(*command.split(), "--params", str(tmp_path / "missing.yaml"))
     assert out.returncode == 1 and "missing.yaml" in out.stderr
+
+
+class InputDataWarning(UserWarning):
+    """Stands in for BoTorch's: a multi-line warning a library raises inside a stage."""
+
+
+def test_a_stage_sums_up_its_warnings_one_line_per_category(capsys):
+    """Two multi-line warnings of one category (and one of another) raised inside a stage come out as one line
+    each: the category, the count and the first line of the first message; nothing multi-line is dumped, and
+    the summary still comes when the stage fails."""
+    import warnings
+
+    import typer
+
+    from stages.common import stage, summarised_warnings, warning_lines
+
+    @stage
+    def noisy(fail: bool = False) -> str:
+        warnings.warn(
+            "Data is not standardized (std = tensor([0.])).\nPlease consider scaling...", InputDataWarning, stacklevel=1
+        )
+        warnings.warn(
+            "Input data is not contained to the unit cube.\nPlease consider min-max...", InputDataWarning, stacklevel=1
+        )
+        warnings.warn("lbfgs failed to converge", RuntimeWarning, stacklevel=1)
+        if fail:
+            raise ValueError("bad input")
+        return "done"
+
+    assert noisy() == "done"
+    err = capsys.readouterr().err.splitlines()
+    here = InputDataWarning.__module__.split(".")[0]
+    assert err == [
+        f"warning: {here}.InputDataWarning x2: Data is not standardized (std = tensor([0.])).",
+        "warning: RuntimeWarning x1: lbfgs failed to converge",
+    ]
+    with pytest.raises(typer.Exit):
+        noisy(fail=True)
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].startswith(f"warning: {here}.InputDataWarning x2: ") and err[-1] == "error: bad input"
+    # the filters in force stay: an ignored category stays ignored, an error still raises
+    lines: list[str] = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InputDataWarning)
+        warnings.simplefilter("error", DeprecationWarning)
+        with summarised_warnings(lines.append):
+            warnings.warn("quiet", InputDataWarning, stacklevel=1)
+            with pytest.raises(DeprecationWarning):
+                warnings.warn("loud", DeprecationWarning, stacklevel=1)
+    assert lines == [] and warning_lines([]) == []

@@ -194,3 +194,60 @@ def test_wltc_class_3b_matches_gtr_15(root):
         assert kmh[a] == 0.0 and kmh[b] == 0.0, phase  # every phase starts and ends at rest
         km = float(np.sum(cyc.speed_mps[a:b])) / 1000.0
         assert km == pytest.approx(meta["phase_distances_km"][phase], abs=5e-4), phase
+
+
+@pytest.mark.parametrize(
+    "text, column",
+    [
+        ("time_s,speed_kmh,driver_mood\n0,0,calm\n1,10,calm\n", "'driver_mood'"),  # a stray column
+        ("time_s,speed_kmh,grad_pct\n0,0,0\n1,10,2\n", "'grad_pct'"),  # a misspelt grade column
+        ("time_s,speed_kmh,\n0,0,\n1,10,\n", "3 (no name)"),  # a trailing comma in the header
+    ],
+)
+def test_an_unknown_raw_cycle_column_is_refused_in_one_line(tmp_path, text, column):
+    """Inputs are read strictly: a column that is neither time_s, a speed nor a grade column stops the read
+    with one line naming the file, the column and the columns a raw cycle takes (it is not silently ignored)."""
+    path = _csv(tmp_path, text)
+    with pytest.raises(CycleError) as info:
+        read_raw_trace(path)
+    msg = str(info.value)
+    assert msg == (
+        f"{path}: unknown column {column}; a raw cycle takes "
+        "time_s, one speed column (speed_kmh, speed_mps, speed_mph) and at most one grade column (grade_pct, grade)"
+    )
+    # a grade column misspelt by its unit (grade_pcnt) keeps its own one-line message
+    path = _csv(tmp_path, "time_s,speed_kmh,grade_pcnt\n0,0,0\n1,10,2\n", name="CYC_PCNT.csv")
+    with pytest.raises(CycleError, match=r"CYC_PCNT.csv: unknown unit in 'grade_pcnt', expected at most one of"):
+        read_raw_trace(path)
+
+
+def test_every_shipped_raw_cycle_has_only_known_columns(root):
+    """The strict reader accepts every raw cycle the repository ships (time_s and speed_kmh today)."""
+    for path in sorted((root / "data" / "raw" / "cycles").glob("*.csv")):
+        assert read_raw_trace(path).speed_mps.size > 1, path
+
+
+def test_hev_check_stops_on_an_unknown_cycle_column_in_one_line(tmp_path, root, monkeypatch):
+    """`hev check` (the pipeline's first stage) on a raw cycle directory whose US06 file carries a stray
+    column: exit 1, one line naming the file and the column."""
+    import shutil
+
+    from typer.testing import CliRunner
+
+    from stages.cli import app
+
+    raw = tmp_path / "cycles"
+    shutil.copytree(root / "data" / "raw" / "cycles", raw)
+    us06 = raw / "CYC_US06.csv"
+    lines = us06.read_text().splitlines()
+    us06.write_text("\n".join([lines[0] + ",driver_mood", *(ln + ",calm" for ln in lines[1:])]) + "\n")
+    data = yaml.safe_load((root / "params.yaml").read_text())
+    data["cycles"]["raw_dir"] = str(raw)
+    (tmp_path / "params.yaml").write_text(yaml.safe_dump(data))
+    monkeypatch.chdir(root)  # the component and DOE inputs of the repository; check fails before writing
+    result = CliRunner().invoke(app, ["check", "--params", str(tmp_path / "params.yaml")])
+    assert result.exit_code == 1
+    assert result.stderr.strip() == (
+        f"error: {us06}: unknown column 'driver_mood'; a raw cycle takes time_s, one speed column "
+        "(speed_kmh, speed_mps, speed_mph) and at most one grade column (grade_pct, grade)"
+    )

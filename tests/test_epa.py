@@ -9,7 +9,6 @@ from __future__ import annotations
 import copy
 import hashlib
 import math
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -246,13 +245,6 @@ def test_what_does_not_convert_says_why_in_one_line(table, make, model, which, m
 
 
 # -------------------------------------------------------------------------------- hev car, hev profile
-@pytest.fixture()
-def project(tmp_path, monkeypatch) -> Path:
-    shutil.copy(REPO / "params.yaml", tmp_path / "params.yaml")
-    monkeypatch.chdir(tmp_path)
-    return tmp_path
-
-
 def test_hev_car_writes_a_profile_hev_profile_takes(project):
     runner = CliRunner()
     out = runner.invoke(

@@ -51,6 +51,7 @@ def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     status = _git("status", "--porcelain", cwd=clone)
     assert status == "", status
+    _assert_dvc_status_is_quiet(clone, env)
     shown = subprocess.run(["dvc", "metrics", "show"], cwd=clone, env=env, capture_output=True, text=True)
     lines = shown.stdout.splitlines()
     assert shown.returncode == 0 and len(lines) == 2, shown.stdout + shown.stderr  # header + answer.json
@@ -72,6 +73,32 @@ def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path
     subprocess.run(["dvc", "checkout"], cwd=clone, env=env, check=True, capture_output=True)
     assert _git("status", "--porcelain", cwd=clone) == ""
     assert _digests(clone / "reports/plots") == plots
+
+
+#: The pipelines `dvc status` may still list after the README's build of a fresh clone, each with its reason
+#: (issue 53). Every other pipeline must be up to date; an entry whose pipeline is no longer listed fails the test,
+#: so the list stays true.
+KNOWN_STALE = {
+    "benchmarks/surrogate/dvc.yaml": "its lock predates the code (the runs were made before the pins of 7db92b8); "
+    "rerunning it takes about 2 h, and its run folders (data/benchmark/runs, git-ignored, not cached) are in no clone",
+}
+
+
+def _assert_dvc_status_is_quiet(clone: Path, env: dict) -> None:
+    """`dvc status` after the README's build: every pipeline up to date but those of KNOWN_STALE, and the plain
+    `dvc status` of the others a line."""
+    out = subprocess.run(["dvc", "status", "--json"], cwd=clone, env=env, capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    listed = {stage.rpartition(":")[0] or "dvc.yaml" for stage in json.loads(out.stdout or "{}")}
+    assert listed == set(KNOWN_STALE), f"dvc status lists {sorted(listed)}; known stale: " + "; ".join(
+        f"{k}: {why}" for k, why in KNOWN_STALE.items()
+    )
+    quiet = sorted(str(p.relative_to(clone)) for p in clone.glob("**/dvc.yaml") if ".venv" not in p.parts)
+    quiet = [p for p in quiet if p not in KNOWN_STALE]
+    assert "dvc.yaml" in quiet and "benchmarks/robustness/dvc.yaml" in quiet
+    shown = subprocess.run(["dvc", "status", *quiet], cwd=clone, env=env, capture_output=True, text=True)
+    lines = [line for line in shown.stdout.splitlines() if line.strip()]
+    assert shown.returncode == 0 and lines == ["Data and pipelines are up to date."], shown.stdout + shown.stderr
 
 
 def _digests(folder: Path) -> dict[str, str]:

@@ -556,18 +556,6 @@ def test_out_names_cover_the_layout():
 
 
 # ------------------------------------------------------------------------------- hev simulate
-@pytest.fixture()
-def stage_dir(tmp_path, monkeypatch, lib, params, root):
-    """A working folder holding what `hev simulate` reads: data/cycles and data/components."""
-    from hevlib.cycles import write_cycles
-
-    monkeypatch.chdir(tmp_path)
-    write_cycles(build_cycles(params.cycles), tmp_path / "data/cycles", tmp_path / "reports/cycles.json")
-    lib.save(tmp_path / "data/components")
-    (tmp_path / "params.yaml").write_text((root / "params.yaml").read_text())
-    return tmp_path
-
-
 def test_hev_simulate_writes_inputs_and_every_response(stage_dir):
     from typer.testing import CliRunner
 

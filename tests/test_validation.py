@@ -256,6 +256,10 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
     write_parquet("data/pareto/merged.parquet", res.merged)
     Path("reports").mkdir()
     Path("reports/pareto.json").write_text(json.dumps(to_json(res.summary)))
+    # what each source searched on, and the BNN worse than a constant on fc: nsga3 and moead are flagged
+    Path("reports/surrogate_metrics.json").write_text(json.dumps(_surrogate_metrics({"fc": -3.99}, {})))
+    for source in ("nsga3", "moead", "moga"):
+        Path(f"reports/optimise_{source}.json").write_text(json.dumps(OPTIMISE_REPORTS[source]))
     out = runner.invoke(app, ["validate"])
     assert out.exit_code == 0, "".join(traceback.format_exception(*out.exc_info)) if out.exc_info else out.output
     table = pd.read_parquet("reports/validation.parquet")
@@ -299,6 +303,13 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
     assert "**Within the model's noise.**" in summary and "### Across seeds" in summary
     assert summary.index("### Across seeds") < summary.index("### ftp (headline cycle)")
     assert "No robustness study on disk" in summary
+    assert metrics["seed_spread"] is None and metrics["seed_spread_status"].startswith("not measured")
+    # the trust of each source, and of the recommended design's
+    assert metrics["trust"]["flagged"] == ["nsga3", "moead"] and "flagged sources" in out.output
+    assert summary.index("## Trust of each source") < summary.index("## How to read the rest")
+    algo = rec["design"]["algo"]
+    flagged = all(a in ("nsga3", "moead") for a in algo.split("+"))
+    assert ("**Trust: flagged.** From " if flagged else "Trust: From ") in summary
     for png in ("improvement_ftp.png", "improvement_hwfet.png", "traces_ftp.png"):
         assert Path(f"reports/plots/validation/{png}").stat().st_size > 0
         assert f"plots/validation/{png}" in summary
@@ -314,6 +325,159 @@ def test_summary_says_so_when_nothing_passed_screening():
     assert res.summary.counts.picked == 0
     text = build_summary(res.summary, s, table, res.selected.to_pandas(), {})
     assert "No design passed the screening" in text and "`speed_dev_max`" in text
+
+
+def _surrogate_metrics(bnn: dict[str, float], regression: dict[str, float]) -> dict:
+    """``reports/surrogate_metrics.json`` in small: held-out R² 0.9 on every objective but those given."""
+
+    def split(worse: dict[str, float]) -> dict:
+        return {o: {"r2": worse.get(o, 0.9), "rmse": 1.0, "mae": 1.0, "spearman": 0.8} for o in OBJECTIVES}
+
+    return {
+        "bnn": {"heldout": split(bnn), "heldout_followers": split({})},
+        "regression": {"heldout": split(regression), "heldout_followers": split({"fc": -2709.0})},
+        "n_designs": {"train": 19, "test": 8, "heldout": 200, "heldout_followers": 47},
+    }
+
+
+#: What each source searched on, as its ``reports/optimise_<source>.json`` says.
+OPTIMISE_REPORTS = {
+    "nsga3": {"surrogate": "bnn"},
+    "moead": {"surrogate": "bnn"},
+    "moga": {"surrogate": "regression"},
+    "parego": {"surrogate": "gp", "objectives_modelled": list(OBJECTIVES)},
+    "oracle": {"surrogate": None, "algorithm": "nsga3"},
+}
+
+
+def test_a_surrogate_worse_than_a_constant_flags_the_sources_that_optimise_on_it():
+    """Held-out R² below 0 on an objective the source optimises: the source is flagged in validation.json and
+    summary.md (the R² table's cell in bold, a line for the source, its picks marked in the shortlist); the
+    oracle searched the simulator, BoTorch's Gaussian processes are not measured (said so, not flagged)."""
+    from hevlib.validation import found_by, source_trust
+
+    table = validation_table(
+        FakeSimulator(), _selected(), [_cycle("ftp")], np.array([43.0, 31.0, 15.0, 3.93, 25, 78, 30])
+    )
+    metrics = _surrogate_metrics({"fc": -3.99, "speed_dev": -60.0}, {})
+    sources = ["nsga3", "moead", "moga", "parego", "nehvi", "oracle"]  # nehvi: no report on disk
+    trust = source_trust(metrics, {**OPTIMISE_REPORTS, "nehvi": None}, sources)
+    s = summarise(table, ["nsga3", "moead", "moga"], ["ftp"], 70.0, trust=trust)
+    data = json.loads(json.dumps(to_json(s)))
+    assert from_json(ValidationSummary, data) == s
+    t = data["trust"]
+    assert t["flagged"] == ["nsga3", "moead"] and t["r2"]["bnn"]["fc"] == -3.99
+    assert t["r2_followers"]["regression"]["fc"] == -2709.0  # shown, but the rule reads every held-out design
+    nsga3 = t["sources"]["nsga3"]
+    assert nsga3["flagged"] and nsga3["model"] == "bnn" and nsga3["worse_than_constant"] == ["fc", "speed_dev"]
+    assert nsga3["searched_on"] == "NSGA-III on the BNN" and nsga3["heldout_r2"]["speed_dev"] == -60.0
+    assert not t["sources"]["moga"]["flagged"] and t["sources"]["moga"]["heldout_r2"]["fc"] == 0.9
+    parego = t["sources"]["parego"]
+    assert parego["model"] == "gp" and parego["heldout_r2"] is None and not parego["flagged"]
+    assert "not measured" in parego["note"]
+    assert t["sources"]["oracle"]["model"] == "simulator" and not t["sources"]["oracle"]["flagged"]
+    assert t["sources"]["nehvi"]["model"] == "unknown" and "not known" in t["sources"]["nehvi"]["note"]
+    from stages.surrogates import _worse_than_constant  # the surrogates stage says so too, in one line
+
+    assert _worse_than_constant(metrics) == {"bnn": ["fc", "speed_dev"]}
+    # a design found by several sources is flagged only if every one of them is
+    assert found_by("moead+nsga3", trust) == ("MOEA/D on the BNN and NSGA-III on the BNN", True)
+    assert found_by("moead+oracle", trust)[1] is False and found_by("moga", trust)[1] is False
+
+    pareto = select_designs(
+        {"nsga3": synthetic_front(40, 1)}, ScreenParams(n_keep=5, n_pick=3, speed_dev_max=1.0, mass_max_kg=2000)
+    ).summary
+    text = build_summary(pareto, s, table, _selected().assign(rank=[1, 2, 3]), {})
+    section = text[text.index("## Trust of each source") : text.index("## How to read the rest")]
+    assert "| the BNN, all 200 held-out designs | 0.9 | **-3.99** |" in section
+    assert "**-60**" in section and "**-2709**" in section
+    assert "- **nsga3** (NSGA-III on the BNN): **flagged**: worse than a constant" in section
+    assert "fc -3.99, speed_dev -60." in section
+    assert "- **moga** (the weighted-sum GA on the regressions): held-out R² at least 0" in section
+    assert "- **parego** (BoTorch's qLogNParEGO on its own Gaussian processes): held-out quality not measured" in (
+        section
+    )
+    assert "**Flagged: nsga3, moead.**" in section
+    assert "| nsga3-1 | nsga3 **(flagged)** |" in text and "| moead-4 | moead+nsga3 **(flagged)** |" in text
+    assert "| moga-0 | moga |" in text
+    # on sound surrogates nothing is flagged
+    sound = source_trust(_surrogate_metrics({}, {}), OPTIMISE_REPORTS, ["nsga3", "moga", "oracle"])
+    assert sound.flagged == [] and not any(t.flagged for t in sound.sources.values())
+    text = build_summary(pareto, summarise(table, ["nsga3"], ["ftp"], 70.0, trust=sound), table, _selected(), {})
+    assert "No source is flagged" in text and "**(flagged)** |" not in text
+
+
+#: ``reports/robustness/summary.json`` in small (``hev robustness report``), made for another car.
+ROBUSTNESS = {
+    "fingerprint": "a31b0827035d91aa",
+    "replicates": 2,
+    "seeds_per_source": 2,
+    "family_share_of_range": 0.05,
+    "default_answer_share": 0.5,
+    "default_family_share": 0.5,
+    "recommended_by_source": {"moead": 1, "oracle": 1},
+    "runs": [
+        {"replicate": 0, "recommended": "moead-2", "answer": {"rec_fc_cb_pct": 34.2828740812}},
+        {"replicate": 1, "recommended": "oracle-169", "answer": {"rec_fc_cb_pct": 32.2701797634}},
+    ],
+    "recommended": [
+        {
+            "replicate": r,
+            "design_id": d,
+            "algo": d.split("-")[0],
+            "default_answer": r == 0,
+            "default_answer_as": "itself" if r == 0 else None,
+            "design": {"p_eng_kw": 44.9436672875},
+        }
+        for r, d in ((0, "moead-2"), (1, "oracle-169"))
+    ],
+    "spread": {
+        "rec_fc_cb_pct": {
+            "n": 2,
+            "replicate_0": 34.2828740812,
+            "mean": 33.2765269223,
+            "std": 1.42,
+            "min": 32.2701797634,
+            "max": 34.2828740812,
+        }
+    },
+    "variable_range": {"p_eng_kw": {"min": 44.8182783193, "max": 49.3286294435, "share_of_range": 0.1}},
+}
+
+
+def test_a_seed_spread_made_with_other_settings_shows_no_figures_only_how_to_make_it():
+    """summary.md shows the seed-spread study's figures only where it was made with this run's settings and
+    code; otherwise one line says how to make it, and validation.json keeps ``seed_spread: null`` with the
+    status."""
+    from hevlib.report import _seed_spread_lines
+
+    table = validation_table(
+        FakeSimulator(), _selected(), [_cycle("ftp")], np.array([43.0, 31.0, 15.0, 3.93, 25, 78, 30])
+    )
+    stale = {**ROBUSTNESS, "current": False}
+    s = summarise(table, ["nsga3", "moead", "moga"], ["ftp"], 70.0, robustness=stale)
+    lines = [x for x in _seed_spread_lines(s, stale) if x]
+    assert lines[0] == "### Across seeds (the seed spread of this answer)" and len(lines) == 2
+    assert "made with other settings or code" in lines[1] and "`dvc repro benchmarks/robustness/dvc.yaml`" in lines[1]
+    for figure in ("34.28", "32.27", "oracle-169", "moead-2", "44.9", "|"):
+        assert figure not in lines[1]
+    data = json.loads(json.dumps(to_json(s)))
+    assert data["seed_spread"] is None and "other settings or code" in data["seed_spread_status"]
+    assert "dvc repro benchmarks/robustness/dvc.yaml" in data["seed_spread_status"]
+    assert from_json(ValidationSummary, data) == s
+    # none on disk: null too, and one line
+    s = summarise(table, ["nsga3"], ["ftp"], 70.0)
+    assert to_json(s)["seed_spread"] is None and to_json(s)["seed_spread_status"].startswith("not measured")
+    assert len([x for x in _seed_spread_lines(s, None) if x]) == 2
+    # made with these settings and code: the figures, in summary.md and validation.json
+    current = {**ROBUSTNESS, "current": True}
+    s = summarise(table, ["nsga3"], ["ftp"], 70.0, robustness=current)
+    text = "\n".join(_seed_spread_lines(s, current))
+    assert "made with these settings and code" in text and "| 34.28 |" in text and "oracle-169" in text
+    data = json.loads(json.dumps(to_json(s)))
+    assert data["seed_spread_status"] == "made with these settings and code"
+    assert data["seed_spread"]["spread"]["rec_fc_cb_pct"]["mean"] == pytest.approx(33.2765269223)
+    assert data["seed_spread"]["fingerprint"] == ROBUSTNESS["fingerprint"] and "runs" not in data["seed_spread"]
 
 
 def test_twins_stay_near_their_design_and_near_ties_become_equivalents():

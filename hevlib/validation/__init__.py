@@ -7,6 +7,8 @@ recommend one. One module per job:
 - :mod:`~hevlib.validation.recommendation` -- eligibility, the design to build, the best of each group, the
   twins and the near-equivalents (typed: :mod:`hevlib.results`);
 - :mod:`~hevlib.validation.bags` -- the FTP bag by bag;
+- :mod:`~hevlib.validation.trust` -- the trust of each source: its model's held-out quality, flagged where
+  worse than a constant on an objective it optimises;
 - :mod:`~hevlib.validation.summary` -- ``reports/validation.json``, ``headline.json`` and ``answer.json``.
 
 This package's face names what the stages use.
@@ -45,7 +47,8 @@ from hevlib.validation.runs import (
     validation_schema,
     validation_table,
 )
-from hevlib.validation.summary import ANSWER_KEYS, answer, headline, summarise
+from hevlib.validation.summary import ANSWER_KEYS, answer, headline, seed_spread, summarise
+from hevlib.validation.trust import found_by, source_trust
 
 __all__ = [
     "ALL",
@@ -66,6 +69,7 @@ __all__ = [
     "eligible_ids",
     "engine_downsizing",
     "failed_cycles",
+    "found_by",
     "ftp_bags",
     "group_rows",
     "headline",
@@ -74,7 +78,9 @@ __all__ = [
     "load_cycles",
     "prius_design",
     "recommendation",
+    "seed_spread",
     "simulate_twins",
+    "source_trust",
     "split_cycle",
     "summarise",
     "traces",

@@ -3,11 +3,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import pandas as pd
 
-from hevlib.results import Counts, Recommendation, ValidationSummary
+from hevlib.results import SEED_SPREAD_NOT_MEASURED, Counts, Recommendation, Trust, ValidationSummary
 from hevlib.validation.improvement import (
     ALL,
     IMPROVEMENT_RESPONSES,
@@ -20,6 +20,34 @@ from hevlib.validation.improvement import (
 from hevlib.validation.recommendation import failed_cycles
 from hevlib.validation.runs import best_design, split_cycle
 
+#: ``seed_spread_status`` of a seed-spread study made with this run's settings and code, and of one that was not.
+SEED_SPREAD_CURRENT = "made with these settings and code"
+SEED_SPREAD_OTHER = (
+    "made with other settings or code, so not shown: `dvc repro benchmarks/robustness/dvc.yaml` makes it for this run"
+)
+#: What ``validation.json`` keeps of a current study (``reports/robustness/summary.json``).
+SEED_SPREAD_KEYS = (
+    "fingerprint",
+    "replicates",
+    "seeds_per_source",
+    "family_share_of_range",
+    "default_answer_share",
+    "default_family_share",
+    "recommended_by_source",
+    "spread",
+    "variable_range",
+)
+
+
+def seed_spread(robustness: Mapping | None) -> tuple[dict | None, str]:
+    """``(seed_spread, seed_spread_status)`` of ``validation.json``: the study's figures only where it was made
+    with this run's settings and code (``robustness["current"]``), else None and how to make them."""
+    if not robustness:
+        return None, SEED_SPREAD_NOT_MEASURED
+    if not robustness.get("current"):
+        return None, SEED_SPREAD_OTHER
+    return {k: robustness[k] for k in SEED_SPREAD_KEYS if k in robustness}, SEED_SPREAD_CURRENT
+
 
 def summarise(
     table: pd.DataFrame,
@@ -27,10 +55,14 @@ def summarise(
     cycles: Sequence[str],
     p_conv_kw: float,
     recommendation: Recommendation | None = None,
+    trust: Trust | None = None,
+    robustness: Mapping | None = None,
 ) -> ValidationSummary:
     """``reports/validation.json``: headline (first cycle) improvement table, counts, engine downsizing,
     baseline and mean-pick responses, the same improvement table for every other cycle, and the
-    ``recommendation`` (:func:`recommendation`) when given."""
+    ``recommendation`` (:func:`recommendation`) when given; the ``trust`` of each source
+    (:func:`~hevlib.validation.trust.source_trust`) and the seed spread (:func:`seed_spread` of the
+    ``robustness`` study, with its ``current`` flag)."""
     headline = cycles[0]
     designs, baselines = split_cycle(table, headline)
     groups = group_rows(designs, algos)
@@ -69,6 +101,8 @@ def summarise(
         by_cycle=by_cycle,
         best_design=best_design(table, headline),
         recommendation=recommendation,
+        trust=trust,
+        **dict(zip(("seed_spread", "seed_spread_status"), seed_spread(robustness), strict=True)),
     )
 
 
