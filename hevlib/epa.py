@@ -105,7 +105,7 @@ import numpy as np
 import pandas as pd
 
 from hevlib.io import read_yaml_mapping
-from hevlib.params import MPS_PER_MPH, BaselineParams, ParamsError, parse_params
+from hevlib.params import MPS_PER_MPH, BaselineParams, EpaParams, ParamsError, parse_params
 from hevlib.profiles import apply_overrides
 
 #: The project's copy of the list (never the shared folder at run time).
@@ -195,6 +195,8 @@ TYPICAL_RADIUS_M = {"Car": 0.316, "Truck": 0.369}
 #: The wheel file's wheel set (WH_SMCAR: 181 lb as a solid cylinder of the rolling radius), kg.
 WHEEL_SET_KG = 181.0 / 2.205
 UPSHIFT_RPM = 2750.0  #: engine speed of the speed table's upshifts, rpm
+#: The params key of a car's engine file, by kind (its file: params' ``epa.engine_<kind>``).
+ENGINE_KEYS: dict[str, str] = {CONVENTIONAL: "baseline.conventional.engine", POWER_SPLIT: "baseline.hybrid.engine"}
 
 
 class CarNotFound(ValueError):
@@ -443,12 +445,14 @@ def engine_kw(car: Car) -> float:
 
 
 def car_profile(
-    car: Car, baseline: BaselineParams, source: str | Path = TEST_CAR_LIST
+    car: Car, baseline: BaselineParams, source: str | Path = TEST_CAR_LIST, engines: EpaParams | None = None
 ) -> list[tuple[str, str, object]]:
     """The profile of ``car``: (comment, dotted key, value) in order, for :func:`render_profile`. A conventional car
     gives ``baseline.conventional``, a power-split hybrid ``baseline.prius`` (test mass and road load); any other
-    kind raises :class:`UnsupportedCar`. The body and wheel files stay ``baseline``'s (params.yaml's: which file is
-    which part is never the code's); the body's CG height, wheelbase and weight split are its file's."""
+    kind raises :class:`UnsupportedCar`. ``engines`` (params' ``epa``): the engine file of today's engines of the
+    car's kind; without it the car keeps ``baseline``'s (the study's ADVISOR maps). The body and wheel files stay
+    ``baseline``'s (params.yaml's: which file is which part is never the code's); the body's CG height, wheelbase
+    and weight split are its file's."""
     cd, etw, hp = coast_down(car), float(car.value(ETW)), float(car.value(HP))
     lines = ("line " if len(car.lines) == 1 else "lines ") + ", ".join(str(x) for x in car.lines)
     road = (
@@ -458,6 +462,7 @@ def car_profile(
     mass = f"Equivalent Test Weight {etw:.0f} lb x 0.45359237 kg/lb"
     if car.kind == POWER_SPLIT:
         return [
+            *_engine_entry(POWER_SPLIT, engines),
             (
                 f"{road}; the Prius body file's CG height, wheelbase and weight split",
                 "baseline.prius.body",
@@ -502,8 +507,9 @@ def car_profile(
                 "inertia_kg_m2": round(d.wheel_inertia_kg_m2, 3),
             },
         ),
+        *_engine_entry(CONVENTIONAL, engines),
         (
-            f"Rated Horsepower {hp:g} hp x 0.745699872 kW/hp (the study's SI engine map scaled)",
+            f"Rated Horsepower {hp:g} hp x 0.745699872 kW/hp (the engine map scaled to it)",
             "baseline.conventional.p_eng_kw",
             engine_kw(car),
         ),
@@ -518,6 +524,22 @@ def car_profile(
             "baseline.conventional.upshift_kmh",
             upshift_kmh(d.radius_m, ratios),
         ),
+    ]
+
+
+def _engine_entry(kind: str, engines: EpaParams | None) -> list[tuple[str, str, object]]:
+    """The profile entry of a 2022 car's engine file (params' ``epa``), none without one."""
+    if engines is None:
+        return []
+    name = engines.engine_conventional if kind == CONVENTIONAL else engines.engine_power_split
+    what = "an SI engine of today" if kind == CONVENTIONAL else "the Atkinson engine of a power split of today"
+    return [
+        (
+            f"engine: {what} (params' epa.engine_*: a map re-levelled to a published efficiency curve, "
+            "hev engine-map, docs/model.md); the study's own maps are ADVISOR's of the late 1990s",
+            ENGINE_KEYS[kind],
+            name,
+        )
     ]
 
 

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from hevlib import epa
-from hevlib.params import BaselineParams, parse_params
+from hevlib.params import BaselineParams, EpaParams, parse_params
 from hevlib.profiles import apply_overrides
 from hevlib.sim.simulator import Simulator
 from hevlib.sizing import study_library
@@ -163,12 +163,12 @@ def select_tests(tests: pd.DataFrame) -> Selection:
     return Selection(cases.reset_index(drop=True), excluded.reset_index(drop=True))
 
 
-def car_overrides(car: epa.Car, baseline: BaselineParams) -> dict:
+def car_overrides(car: epa.Car, baseline: BaselineParams, engines: EpaParams | None = None) -> dict:
     """The params overrides that make ``car`` one of the simulator's baselines (:func:`hevlib.epa.car_profile`). A
     power-split hybrid is the stock Prius with the row's test mass and road load, its engine at the row's rated
     power and the rest of the kit (motor, generator, battery modules) scaled with it from the Prius's: the list
     gives no motor, generator or battery sizes."""
-    over = epa.profile_overrides(epa.car_profile(car, baseline))
+    over = epa.profile_overrides(epa.car_profile(car, baseline, engines=engines))
     if car.kind == epa.POWER_SPLIT:
         p = baseline.prius
         scale = epa.engine_kw(car) / p.p_eng_kw
@@ -190,7 +190,9 @@ def predict_car(raw: dict, car: epa.Car, categories: list[str], cycles: dict) ->
     ``car`` on each test category, charge-balanced (SAE J1711, ``sim.charge_balance_*``) for a hybrid; ``raw``:
     the params mapping the car's overrides apply to; ``cycles``: the project's cycles by name."""
     base = parse_params(raw, "params.yaml")
-    params = parse_params(apply_overrides(raw, car_overrides(car, base.baseline)), f"params.yaml with {car.name}")
+    params = parse_params(
+        apply_overrides(raw, car_overrides(car, base.baseline, base.epa)), f"params.yaml with {car.name}"
+    )
     kind = "prius" if car.kind == epa.POWER_SPLIT else "conventional"
     out = {}
     with Simulator(study_library(params.baseline), params) as sim:

@@ -609,6 +609,15 @@ class ValidateParams(_Strict):
         return self
 
 
+class EpaParams(_Strict):
+    """``hev car`` and the fleet validation (``benchmarks/fleet``): the engine file a car of EPA's 2022 test car list
+    gets, by kind, in ``baseline.components_dir`` (``hev engine-map``: a map of today's engines; the study's own
+    cars keep ``baseline``'s)."""
+
+    engine_conventional: ComponentFile
+    engine_power_split: ComponentFile
+
+
 class Params(_Strict):
     cycles: CyclesParams
     baseline: BaselineParams
@@ -622,6 +631,7 @@ class Params(_Strict):
     validation: ValidateParams = Field(ValidateParams(), alias="validate")
     benchmark: BenchmarkParams = BenchmarkParams()
     robustness: RobustnessParams = RobustnessParams()
+    epa: EpaParams | None = None
 
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True, strict=True)
 

@@ -28,11 +28,11 @@ def car(
     power and gears (a power-split hybrid: the stock Prius's test mass and road load)."""
     from hevlib.epa import car_profile, check_profile, find_car, read_test_car_list, render_profile
 
-    baseline = params_from(params).baseline
+    p = params_from(params)
     found = find_car(
         read_test_car_list(table), make, model, config=config, vehicle_id=vehicle_id, line=line, source=table
     )
-    entries = car_profile(found, baseline, table)
+    entries = car_profile(found, p.baseline, table, p.epa)
     check_profile(entries, params)
     text = render_profile(found, entries, out.stem if out is not None else "NAME")
     if out is None:
