@@ -32,6 +32,7 @@ import numpy as np
 
 from hevlib.components.files import load_engine, read_component_file
 from hevlib.components.operating_line import best_efficiency_line
+from hevlib.components.parts import EngineMap
 
 
 @dataclass(frozen=True)
@@ -89,9 +90,9 @@ N_SPEED, N_TORQUE = 41, 81
 N_LINE = 401
 
 
-def relevelled_fuel_g_s(source_path: Path, curve: EfficiencyCurve, speed_rad_s, torque_nm) -> np.ndarray:
-    """Fuel rate (g/s) of the re-levelled engine at the grid ``speed_rad_s`` x ``torque_nm`` (module doc)."""
-    src = load_engine(Path(source_path))
+def relevelled_fuel_g_s(src: EngineMap, curve: EfficiencyCurve, speed_rad_s, torque_nm) -> np.ndarray:
+    """Fuel rate (g/s) of engine ``src`` re-levelled to ``curve`` at the grid ``speed_rad_s`` x ``torque_nm``
+    (module doc)."""
     w, t = np.meshgrid(np.asarray(speed_rad_s, float), np.asarray(torque_nm, float), indexing="ij")
     p_w = w * t
     line_p, line_w, line_t = best_efficiency_line(src, n_power=N_LINE)
@@ -103,7 +104,7 @@ def relevelled_fuel_g_s(source_path: Path, curve: EfficiencyCurve, speed_rad_s, 
         ideal = p_w / (curve.at(p_w / rated_w) * src.lhv_j_per_g)  # g/s on the best line
         fuel = np.where(p_w > 0, ideal * fuel_src / best_fuel, 0.0)
     if not np.all(np.isfinite(fuel)):
-        raise ValueError(f"{source_path}: the re-levelled fuel map is not finite")
+        raise ValueError(f"{src.name}: the re-levelled fuel map is not finite")
     return fuel
 
 
@@ -146,10 +147,12 @@ def relevelled_engine(source_path: str | Path, curve: EfficiencyCurve) -> dict:
         "torque_axis_nm": _r(torque),
         "max_torque_nm": _r(src.max_torque_at(speed)),
         "closed_throttle_torque_nm": _r(np.interp(speed, src.speed_rad_s, src.closed_throttle_torque_nm)),
-        "fuel_map_g_per_s": _r(relevelled_fuel_g_s(source_path, curve, speed, torque)),
+        "fuel_map_g_per_s": _r(relevelled_fuel_g_s(src, curve, speed, torque)),
     }
     for gas in ("hc", "co", "nox"):
         out[f"{gas}_map_g_per_s"] = _r(src.rate_g_s(gas, w, t))
+    for key in _DROPPED_THERMAL:
+        out["thermal_model"].pop(key, None)
     out["notes"] = [
         f"Derived from {source_path.name}; nothing in it is fitted to a test.",
         "The exhaust flow and temperature maps of the source are left out: the kernels derive both from the fuel map.",
@@ -159,6 +162,8 @@ def relevelled_engine(source_path: str | Path, curve: EfficiencyCurve) -> dict:
 
 #: Keys of a source file that describe its own map only (checks and variants) and do not carry over.
 _DROPPED = ("bsfc_map_g_per_kwh", "bsfc_map_note", "enriched_variant", "derived_checks", "notes", "peak_power_kw")
+#: ... and of its thermal model: the exhaust maps stored for checking (the kernels derive them from the fuel map).
+_DROPPED_THERMAL = ("exhaust_gas_flow_map_g_per_s", "engine_out_exhaust_temperature_map_c", "note")
 
 
 def _r(a):
@@ -168,19 +173,11 @@ def _r(a):
     return out.tolist() if arr.ndim else float(out)
 
 
-def _strip_thermal_maps(d: dict) -> dict:
-    th = d.get("thermal_model")
-    if isinstance(th, dict):
-        for key in ("exhaust_gas_flow_map_g_per_s", "engine_out_exhaust_temperature_map_c", "note"):
-            th.pop(key, None)
-    return d
-
-
 def engine_file(source_path: str | Path, curve_name: str) -> dict:
     """:func:`relevelled_engine` by curve name (KeyError listing the curves if unknown)."""
     if curve_name not in CURVES:
         raise KeyError(f"curve {curve_name!r}: one of {', '.join(CURVES)}")
-    return _strip_thermal_maps(relevelled_engine(source_path, CURVES[curve_name]))
+    return relevelled_engine(source_path, CURVES[curve_name])
 
 
 def render(data: dict) -> str:
