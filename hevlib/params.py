@@ -618,6 +618,27 @@ class EpaParams(_Strict):
     engine_power_split: ComponentFile
 
 
+class BoundParams(_Strict):
+    """``hev bound``: the charge-sustaining fuel bound by dynamic programming over the battery's SOC
+    (:mod:`hevlib.bound`) for the picks and the stock Prius, against the rule base. Its resolution: the SOC grid's
+    step and the engine-on candidates per step (a grid of speeds across the engine's window, of torques up to
+    what the engine and the generator take); the cycles it is computed on (cycles the picks drive: a bound needs a
+    trace that the design meets)."""
+
+    soc_step: Annotated[float, Field(gt=0.0, le=0.01)] = 0.0005
+    n_speed: Annotated[int, Field(ge=2, le=200)] = 24
+    n_torque: Annotated[int, Field(ge=2, le=200)] = 24
+    cycles: list[Annotated[str, Field(pattern=r"^[A-Za-z0-9_]+$")]] = ["ftp", "hwfet"]
+
+    @model_validator(mode="after")
+    def _cycles(self):
+        if not self.cycles:
+            raise ValueError("cycles: needs at least one cycle")
+        if len(set(self.cycles)) != len(self.cycles):
+            raise ValueError("cycles: a cycle is listed twice")
+        return self
+
+
 class Params(_Strict):
     cycles: CyclesParams
     baseline: BaselineParams
@@ -632,6 +653,7 @@ class Params(_Strict):
     benchmark: BenchmarkParams = BenchmarkParams()
     robustness: RobustnessParams = RobustnessParams()
     epa: EpaParams | None = None
+    bound: BoundParams = BoundParams()
 
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True, strict=True)
 
@@ -640,6 +662,9 @@ class Params(_Strict):
         for name in self.sim.start:
             if name not in self.cycles.cycles:
                 raise ValueError(f"sim.start.{name}: not one of cycles.cycles")
+        for name in self.bound.cycles:
+            if name not in self.cycles.cycles:
+                raise ValueError(f"bound.cycles: {name!r} is not one of cycles.cycles")
         return self
 
 

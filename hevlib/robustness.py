@@ -77,10 +77,26 @@ def replicate_params(raw: Mapping, replicate: int) -> dict:
     return out
 
 
+#: The params groups the chain's stages read (its pipeline's ``params``, the study's own ``robustness`` aside): the
+#: groups that only other commands read (``benchmark``, ``epa``, ``bound``) do not move a replicate.
+CHAIN_PARAMS: tuple[str, ...] = (
+    "optimise",
+    "surrogate",
+    "screen",
+    "validate",
+    "design_space",
+    "doe",
+    "cycles",
+    "baseline",
+    "sim",
+    "pms",
+)
+
+
 def fingerprint(raw: Mapping, code_hash: str, sim_fingerprint: str) -> str:
-    """What a stored replicate depends on: every params group a stage of the chain reads (the benchmark's and
+    """What a stored replicate depends on: every params group a stage of the chain reads (:data:`CHAIN_PARAMS`;
     where batches run aside), the simulator (``sim_fingerprint``) and the chain's code (``code_hash``)."""
-    params = {k: v for k, v in raw.items() if k not in ("benchmark", "robustness")}
+    params = {k: v for k, v in raw.items() if k in CHAIN_PARAMS}
     sim = {k: v for k, v in params.get("sim", {}).items() if k not in ("executor", "scheduler", "workers")}
     blob = json.dumps(
         {

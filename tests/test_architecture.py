@@ -45,7 +45,9 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
         "physics",  # component data, cycles, sizing, the simulator and what runs it
         (
             "hevlib.baselines",
+            "hevlib.bound",
             "hevlib.components",
+            "hevlib.controller_gap",
             "hevlib.cycles",
             "hevlib.doe",
             "hevlib.earned",

@@ -1,0 +1,303 @@
+"""The controller's gap (issue 56, ``hev bound``): each pick's, the stock Prius's and the conventional car's fuel
+under their own controller (the study's rule base; the conventional car's shift logic) against the bound of
+:mod:`hevlib.bound` on the same hardware and trace, on one yardstick (SOC-corrected fuel on the engine's hot map),
+the headline saving at the bounds, and the bound's grid convergence where it is reported."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import NamedTuple
+
+import numpy as np
+import pandas as pd
+
+from hevlib.bound import Bound, BoundGrid, Infeasible, fuel_bound, gear_bound
+from hevlib.cycles import Cycle
+from hevlib.sim.powertrain import layout as L
+
+#: Columns of :func:`controller_gap`'s table, with their units.
+GAP_COLUMNS: dict[str, str] = {
+    "vehicle": "the pick's design id, prius or conventional",
+    "cycle": "",
+    "rule_fc_charge_balanced": "L/100 km: the rule base's (the conventional car's shift logic's) charge-balanced fuel",
+    "rule_cold_pct": "% of the rule base's fuel: the cold start's surplus (not in the bound)",
+    "rule_fc_hot": "L/100 km: the rule base's balanced run, SOC-corrected, on the hot map (the surplus out)",
+    "bound_fc": "L/100 km: the bound, SOC-corrected (its end SOC at least its start)",
+    "gap_pct": "%: how much more the rule base burns than the bound (rule_fc_hot / bound_fc - 1)",
+    "rule_starts": "engine starts of the rule base's balanced run",
+    "bound_starts": "engine starts on the bound's run",
+    "soc_init": "the SOC both start from: the rule base's charge-balanced start",
+    "bound_soc_end": "the bound's final SOC",
+    "note": "why there is no bound, where there is none",
+}
+
+
+def _conventional_row(label: str, vehicle, cname: str, cycle: Cycle) -> dict:
+    """The conventional car's row of :func:`controller_gap`: its shift logic against its gear bound."""
+    from hevlib.sim.simulator import responses, simulate
+
+    run = simulate(vehicle, cycle)
+    r = responses(run, cycle, vehicle.library).iloc[0]
+    cold = cold_share(run.out[0])
+    row = {
+        "vehicle": label,
+        "cycle": cname,
+        "rule_fc_charge_balanced": float(r["fc"]),
+        "rule_cold_pct": 100.0 * cold,
+        "rule_fc_hot": float(r["fc"] * (1.0 - cold)),
+        "bound_fc": np.nan,
+        "gap_pct": np.nan,
+        "rule_starts": 0.0,
+        "bound_starts": 0.0,
+        "soc_init": np.nan,
+        "bound_soc_end": np.nan,
+        "note": "",
+    }
+    if not bool(r["cycle_met"]):
+        row["note"] = "does not meet the trace under its shift logic"
+        return row
+    try:
+        b = gear_bound(vehicle, cycle)
+    except Infeasible as err:
+        row["note"] = f"gear bound: {err}"
+        return row
+    row["bound_fc"] = float(b["fc"])
+    row["gap_pct"] = 100.0 * (row["rule_fc_hot"] / row["bound_fc"] - 1.0)
+    return row
+
+
+def controller_gap(
+    vehicles: Mapping[str, object],
+    cycles: Mapping[str, Cycle],
+    grid: BoundGrid,
+    progress: Callable[[int, int], None] | None = None,
+) -> pd.DataFrame:
+    """For each vehicle (label -> a :class:`hevlib.sim.vehicles.Vehicle` of one design) and cycle: a power-split
+    car's rule base, charge-balanced (``sim.charge_balance_*`` as every stage balances), and its bound from the SOC
+    that run starts from; the conventional car's shift logic and its gear bound (:func:`gear_bound`); side by side
+    on one yardstick (SOC-corrected fuel on the hot map), :data:`GAP_COLUMNS`.
+
+    A vehicle that does not meet a cycle's trace under the rule base gets no bound there (the bound follows the
+    trace exactly: a controller's fuel on a trace it does not drive is not comparable); nor one whose trace the
+    bound finds no admissible control for on its grid (said in ``note``)."""
+    from hevlib.sim.simulator import charge_balance, responses, simulate
+
+    rows = []
+    total, done = len(vehicles) * len(cycles), 0
+    for cname, cycle in cycles.items():
+        for label, vehicle in vehicles.items():
+            if vehicle.kind == "conventional":
+                rows.append(_conventional_row(label, vehicle, cname, cycle))
+                done += 1
+                if progress is not None:
+                    progress(done, total)
+                continue
+            sim = vehicle.library.params.sim
+            first = simulate(vehicle, cycle)
+            last, cb = charge_balance(
+                vehicle, cycle, first, tolerance=sim.charge_balance_tolerance, max_runs=sim.charge_balance_max_runs
+            )
+            r = responses(last, cycle, vehicle.library).iloc[0]
+            soc0 = float(cb["soc_init_charge_balanced"].iloc[0])
+            cold = cold_share(last.out[0])
+            row = {
+                "vehicle": label,
+                "cycle": cname,
+                "rule_fc_charge_balanced": float(cb["fc_charge_balanced"].iloc[0]),
+                "rule_cold_pct": 100.0 * cold,
+                "rule_fc_hot": float(r["fc_soc_corrected"] - cold * r["fc"]),
+                "bound_fc": np.nan,
+                "gap_pct": np.nan,
+                "rule_starts": float(r["n_engine_starts"]),
+                "bound_starts": np.nan,
+                "soc_init": soc0,
+                "bound_soc_end": np.nan,
+                "note": "",
+            }
+            if not bool(r["cycle_met"]):
+                row["note"] = "does not meet the trace under the rule base"
+            elif not bool(cb["charge_balanced"].iloc[0]):
+                row["note"] = "the rule base does not balance its charge"
+            else:
+                try:
+                    b = fuel_bound(vehicle, cycle, grid, soc0)
+                except Infeasible as err:
+                    row["note"] = f"bound: {err}"
+                else:
+                    row["bound_fc"] = float(b.responses["fc_soc_corrected"])
+                    row["gap_pct"] = 100.0 * (row["rule_fc_hot"] / row["bound_fc"] - 1.0)
+                    row["bound_starts"] = float(b.responses["n_engine_starts"])
+                    row["bound_soc_end"] = b.soc_end
+            rows.append(row)
+            done += 1
+            if progress is not None:
+                progress(done, total)
+    return pd.DataFrame(rows, columns=list(GAP_COLUMNS))
+
+
+def grid_convergence(vehicle, cycle: Cycle, grid: BoundGrid, soc_init: float) -> tuple[Bound, dict[str, float]]:
+    """The bound of ``vehicle`` on ``cycle`` and how far it moves, in %, when the SOC step is halved and when the
+    engine-on candidates are doubled in each direction (the bound's resolution, measured where it is reported)."""
+    base = fuel_bound(vehicle, cycle, grid, soc_init)
+    fc = base.responses["fc_soc_corrected"]
+    half = fuel_bound(vehicle, cycle, grid._replace(soc_step=grid.soc_step / 2), soc_init).responses
+    finer = fuel_bound(
+        vehicle, cycle, grid._replace(n_speed=2 * grid.n_speed, n_torque=2 * grid.n_torque), soc_init
+    ).responses
+    return base, {
+        "fc": float(fc),
+        "soc_step_halved_pct": 100.0 * (half["fc_soc_corrected"] / fc - 1.0),
+        "candidates_doubled_pct": 100.0 * (finer["fc_soc_corrected"] / fc - 1.0),
+    }
+
+
+#: What the bound leaves out (:mod:`hevlib.bound`'s docstring), for the report.
+LEAVES_OUT: tuple[str, ...] = (
+    "the engine's thermal state: the hot map throughout (the rule base is compared on its hot-map fuel, its cold "
+    "start's surplus taken out and reported as rule_cold_pct)",
+    "the tailpipe: no emission constraint, fuel only",
+    "the carrier's inertia and the generator's rate of moving it: any engine speed of the window within a step",
+    "the rule base's minimum on and off times and its thresholds",
+    "the driver: the trace is followed exactly (no bound where the rule base does not meet it)",
+)
+
+
+def gap_report(table: pd.DataFrame, grid: BoundGrid, recommended: str, convergence: Mapping[str, float]) -> dict:
+    """The controller's gap as ``reports/bound.json``: the settings, what the bound leaves out, every row of
+    :func:`controller_gap`, per cycle the spread of the gap over the picks and the gaps of the recommended design,
+    the stock Prius and the conventional car, the headline saving (the recommended design against the conventional
+    car, both on the hot map) under the rule base, with the hybrid at its bound, and with both at their bounds,
+    and the bound's grid convergence (``convergence``, on the recommended design and the first cycle)."""
+
+    def one(rows: pd.DataFrame, vehicle: str, col: str) -> float:
+        hit = rows.loc[rows["vehicle"] == vehicle, col]
+        return float(hit.iloc[0]) if len(hit) else np.nan
+
+    by_cycle = {}
+    for cname, rows in table.groupby("cycle", sort=False):
+        picks = rows[~rows["vehicle"].isin(["prius", "conventional"])]
+        gaps = picks["gap_pct"].dropna()
+        conv_rule, conv_bound = one(rows, "conventional", "rule_fc_hot"), one(rows, "conventional", "bound_fc")
+        rec_rule, rec_bound = one(rows, recommended, "rule_fc_hot"), one(rows, recommended, "bound_fc")
+        by_cycle[cname] = {
+            "picks_with_bound": int(gaps.size),
+            "picks": int(len(picks)),
+            "gap_pct_median": float(gaps.median()) if gaps.size else None,
+            "gap_pct_min": float(gaps.min()) if gaps.size else None,
+            "gap_pct_max": float(gaps.max()) if gaps.size else None,
+            "recommended_gap_pct": one(rows, recommended, "gap_pct"),
+            "prius_gap_pct": one(rows, "prius", "gap_pct"),
+            "conventional_gap_pct": one(rows, "conventional", "gap_pct"),
+            "saving_rule_pct": 100.0 * (1.0 - rec_rule / conv_rule),
+            "saving_bound_pct": 100.0 * (1.0 - rec_bound / conv_rule),
+            "saving_both_bounds_pct": 100.0 * (1.0 - rec_bound / conv_bound),
+        }
+    return {
+        "settings": {**grid._asdict(), "cycles": list(dict.fromkeys(table["cycle"]))},
+        "recommended": recommended,
+        "leaves_out": list(LEAVES_OUT),
+        "columns": GAP_COLUMNS,
+        "by_cycle": by_cycle,
+        "convergence": dict(convergence),
+        "rows": table.to_dict("records"),
+    }
+
+
+def gap_markdown(report: dict) -> str:
+    """``reports/bound.md``: the gap per cycle and the table of every pick."""
+    rec = report["recommended"]
+    s = report["settings"]
+    lines = [
+        "# The controller's gap: the rule base against the least fuel any controller could burn",
+        "",
+        f"Dynamic programming over the battery's SOC (`hev bound`, `hevlib/bound.py`): SOC step {s['soc_step']:g}, "
+        f"{s['n_speed']} x {s['n_torque']} engine-on candidates per step. Both sides SOC-corrected on the engine's "
+        "hot map (the rule base's cold-start surplus is taken out and shown). The bound leaves out: "
+        + "; ".join(report["leaves_out"])
+        + ".",
+        "",
+        "| cycle | picks with a bound | gap median (range) | recommended (" + rec + ") | stock Prius "
+        "| conventional (gears) | saving vs conventional: rule base | hybrid at its bound | both at their bounds |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+
+    def pct(x):
+        return "—" if x is None or not np.isfinite(x) else f"{x:+.1f} %"
+
+    def num(x):
+        return "—" if x is None or not np.isfinite(x) else f"{x:.1f} %"
+
+    for cname, c in report["by_cycle"].items():
+        spread = (
+            f"{pct(c['gap_pct_median'])} ({pct(c['gap_pct_min'])} .. {pct(c['gap_pct_max'])})"
+            if c["gap_pct_median"] is not None
+            else "—"
+        )
+        lines.append(
+            f"| {cname} | {c['picks_with_bound']} of {c['picks']} | {spread} | {pct(c['recommended_gap_pct'])} "
+            f"| {pct(c['prius_gap_pct'])} | {pct(c['conventional_gap_pct'])} | {num(c['saving_rule_pct'])} "
+            f"| {num(c['saving_bound_pct'])} | {num(c['saving_both_bounds_pct'])} |"
+        )
+    cv = report["convergence"]
+    lines += [
+        "",
+        f"Grid convergence ({rec}, {s['cycles'][0]}): halving the SOC step moves the bound by "
+        f"{cv['soc_step_halved_pct']:+.2f} %, doubling the candidates each way by "
+        f"{cv['candidates_doubled_pct']:+.2f} %.",
+        "",
+        "The conventional car's controller is its shift logic and its bound the best gear on every step (no battery: "
+        "nothing to carry from step to step).",
+        "",
+        "| vehicle | cycle | rule base, charge-balanced [L/100 km] | cold surplus | rule base, hot [L/100 km] "
+        "| bound [L/100 km] | gap | starts: rule / bound | note |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in report["rows"]:
+        b = "—" if not np.isfinite(r["bound_fc"]) else f"{r['bound_fc']:.3f}"
+        b_starts = "—" if not np.isfinite(r["bound_starts"]) else f"{r['bound_starts']:.0f}"
+        starts = f"{r['rule_starts']:.0f} / {b_starts}"
+        lines.append(
+            f"| {r['vehicle']} | {r['cycle']} | {r['rule_fc_charge_balanced']:.3f} | {r['rule_cold_pct']:.1f} % "
+            f"| {r['rule_fc_hot']:.3f} | {b} | {pct(r['gap_pct'])} | {starts} | {r['note']} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def cold_share(out: np.ndarray) -> float:
+    """The share of a run's fuel energy that is the cold start's surplus (an ``O_*`` row)."""
+    return float(out[L.O_E_FUEL_COLD] / out[L.O_E_FUEL]) if out[L.O_E_FUEL] > 0.0 else 0.0
+
+
+class BoundStudy(NamedTuple):
+    """What ``hev bound`` writes: the report (:func:`gap_report`), the gap table, the recommended design's bound
+    on the first cycle and the rule base's trace there from the same start."""
+
+    report: dict
+    table: pd.DataFrame
+    recommended_bound: Bound
+    recommended_rule_trace: pd.DataFrame
+
+
+def bound_study(
+    sim,
+    designs: Mapping[str, np.ndarray],
+    recommended: str,
+    cycles: Mapping[str, Cycle],
+    grid: BoundGrid,
+    progress: Callable[[int, int], None] | None = None,
+) -> BoundStudy:
+    """The controller's gap of every design (``designs``: id -> its row of the seven variables), the stock Prius
+    and the conventional car on ``cycles`` (:func:`controller_gap`), and the grid convergence of the recommended
+    design's bound on the first cycle."""
+    vehicles = {"conventional": sim.vehicle(None, "conventional"), "prius": sim.vehicle(None, "prius")}
+    vehicles.update({k: sim.vehicle(np.asarray(x, float).reshape(1, -1), "hybrid") for k, x in designs.items()})
+    table = controller_gap(vehicles, cycles, grid, progress)
+    first = next(iter(cycles))
+    row = table[(table["vehicle"] == recommended) & (table["cycle"] == first)].iloc[0]
+    if not np.isfinite(row["bound_fc"]):
+        raise ValueError(f"bound: the recommended design {recommended} has no bound on {first} ({row['note']})")
+    soc0 = float(row["soc_init"])
+    rec_bound, convergence = grid_convergence(vehicles[recommended], cycles[first], grid, soc0)
+    rule_trace = sim.trace(np.asarray(designs[recommended], float).reshape(1, -1), cycles[first], soc_init=soc0)
+    report = gap_report(table, grid, recommended, convergence)
+    return BoundStudy(report, table, rec_bound, rule_trace)

@@ -1,0 +1,43 @@
+"""The controller's gap (``hev bound``): the rule base's fuel against the bound, and how each spends the battery."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from hevlib.plots import plt
+
+
+def gap_figure(table: pd.DataFrame, recommended: str) -> plt.Figure:
+    """One panel per cycle: each vehicle's fuel under the rule base (hot map, SOC-corrected) and at the bound, the
+    gap written beside it; the recommended design and the stock Prius named, the vehicles without a bound greyed."""
+    cycles = list(dict.fromkeys(table["cycle"]))
+    n = table["vehicle"].nunique()
+    fig, axes = plt.subplots(1, len(cycles), figsize=(5.6 * len(cycles), 0.32 * n + 1.6), squeeze=False)
+    for ax, cname in zip(axes[0], cycles, strict=True):
+        rows = table[table["cycle"] == cname].reset_index(drop=True)
+        y = np.arange(len(rows))
+        ax.barh(y + 0.2, rows["rule_fc_hot"], height=0.38, color="tab:orange", label="rule base (Table 2)")
+        ax.barh(y - 0.2, rows["bound_fc"].fillna(0.0), height=0.38, color="tab:blue", label="bound (DP over SOC)")
+        top = float(np.nanmax(rows["rule_fc_hot"]))
+        for i, r in rows.iterrows():
+            text = f"{r['gap_pct']:+.1f} %" if np.isfinite(r["gap_pct"]) else "no bound"
+            ax.text(top * 1.02, i, text, va="center", fontsize=7)
+        labels = [f"{v} (recommended)" if v == recommended else v for v in rows["vehicle"]]
+        ax.set_yticks(y, labels, fontsize=7)
+        ax.invert_yaxis()
+        ax.set(xlim=(0, top * 1.25), xlabel="fuel, SOC-corrected, hot map [L/100 km]", title=cname)
+        ax.grid(axis="x", alpha=0.3)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2)
+    return fig
+
+
+def soc_figure(time_s: np.ndarray, soc_rule: np.ndarray, soc_bound: np.ndarray, title: str) -> plt.Figure:
+    """The battery's SOC along the cycle under the rule base and at the bound, from the same start."""
+    fig, ax = plt.subplots(figsize=(9.0, 3.4))
+    ax.plot(time_s, soc_rule, color="tab:orange", lw=1.0, label="rule base")
+    ax.plot(time_s, soc_bound, color="tab:blue", lw=1.0, label="bound")
+    ax.set(xlabel="time [s]", ylabel="SOC [-]", title=title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return fig
