@@ -12,7 +12,7 @@ export GIT_AUTHOR_NAME="${GIT_AUTHOR_NAME:-hev-sizing}" GIT_AUTHOR_EMAIL="${GIT_
 export GIT_COMMITTER_NAME="$GIT_AUTHOR_NAME" GIT_COMMITTER_EMAIL="$GIT_AUTHOR_EMAIL"
 dvc exp run $(hev profile fast)
 for f in cycles components baselines doe surrogate_metrics optimise_oracle optimise_nsga3 optimise_moead optimise_moga \
-  optimise_parego optimise_nehvi pareto validation headline; do
+  optimise_parego optimise_nehvi pareto validation headline bound; do
   cp "reports/$f.json" "$root/ci/fast_baseline/$f.json"
 done
 echo "ci/fast_baseline refreshed from $(git -C "$root" rev-parse --short HEAD)"
