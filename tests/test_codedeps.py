@@ -60,7 +60,18 @@ def test_the_simulating_stages_do_not_depend_on_plots_reports_or_surrogates():
 def test_only_the_stages_that_simulate_depend_on_the_simulator():
     deps = generated_deps(REPO, DVC_YAML, COMMANDS)
     simulating = {s for s, d in deps.items() if "hevlib/sim" in d or "hevlib/sim/simulator.py" in d}
-    calls_it = {"baselines", "doe", "heldout", "judge", "surrogates", "oracle", "optimise", "bayes", "validate"}
+    calls_it = {
+        "baselines",
+        "doe",
+        "heldout",
+        "judge",
+        "surrogates",
+        "oracle",
+        "optimise",
+        "bayes",
+        "validate",
+        "bound",
+    }
     assert simulating == calls_it  # surrogates: the held-out set, simulated again when params changed
     for stage in ("cycles", "pareto"):
         assert not [d for d in deps[stage] if d.startswith(("hevlib/sim", "stages/simulating.py"))], stage
