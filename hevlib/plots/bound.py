@@ -9,16 +9,28 @@ from hevlib.plots import plt
 
 
 def gap_figure(table: pd.DataFrame, recommended: str) -> plt.Figure:
-    """One panel per cycle: each vehicle's fuel under the rule base (hot map, SOC-corrected) and at the bound, the
-    gap written beside it; the recommended design and the stock Prius named, the vehicles without a bound greyed."""
+    """One panel per cycle: each vehicle's fuel under its controller (hot map, SOC-corrected) and at its bound, the
+    gap written beside it ("no bound" where there is none); the recommended design named."""
     cycles = list(dict.fromkeys(table["cycle"]))
     n = table["vehicle"].nunique()
     fig, axes = plt.subplots(1, len(cycles), figsize=(5.6 * len(cycles), 0.32 * n + 1.6), squeeze=False)
     for ax, cname in zip(axes[0], cycles, strict=True):
         rows = table[table["cycle"] == cname].reset_index(drop=True)
         y = np.arange(len(rows))
-        ax.barh(y + 0.2, rows["rule_fc_hot"], height=0.38, color="tab:orange", label="rule base (Table 2)")
-        ax.barh(y - 0.2, rows["bound_fc"].fillna(0.0), height=0.38, color="tab:blue", label="bound (DP over SOC)")
+        ax.barh(
+            y + 0.2,
+            rows["rule_fc_hot"],
+            height=0.38,
+            color="tab:orange",
+            label="its controller: the rule base (Table 2); gears: the shift logic",
+        )
+        ax.barh(
+            y - 0.2,
+            rows["bound_fc"].fillna(0.0),
+            height=0.38,
+            color="tab:blue",
+            label="its bound: DP over SOC; gears: the best on each step",
+        )
         top = float(np.nanmax(rows["rule_fc_hot"]))
         for i, r in rows.iterrows():
             text = f"{r['gap_pct']:+.1f} %" if np.isfinite(r["gap_pct"]) else "no bound"
@@ -28,7 +40,7 @@ def gap_figure(table: pd.DataFrame, recommended: str) -> plt.Figure:
         ax.invert_yaxis()
         ax.set(xlim=(0, top * 1.25), xlabel="fuel, SOC-corrected, hot map [L/100 km]", title=cname)
         ax.grid(axis="x", alpha=0.3)
-        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=1)
     return fig
 
 
