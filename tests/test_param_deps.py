@@ -38,7 +38,7 @@ def test_the_simulating_stages_list_exactly_what_a_sizing_simulation_reads():
 
 def test_the_validating_stages_list_every_simulation_key_but_where_batches_run():
     every = {f"sim.{k}" for k in SimParams.model_fields if k not in EXECUTION_KEYS}
-    for stage in ("baselines", "validate"):
+    for stage in ("baselines", "validate", "bound"):
         sims = {p for p in _params_of(stage, "udds") if p.startswith("sim")}
         assert sims == every, stage
         assert "pms" in _params_of(stage, "udds") and "baseline" in _params_of(stage, "udds")
@@ -50,13 +50,20 @@ def _git(*args: str, cwd: Path = REPO) -> str:
 
 #: key -> (new value, the stages that must rerun; `check` validates the whole file and is left out)
 CHANGES = {
-    "sim.start.hwfet": ("cold", {"baselines", "validate"}),
-    "sim.charge_balance_tolerance": (0.02, {"baselines", "validate"}),
+    "sim.start.hwfet": ("cold", {"baselines", "validate", "bound"}),
+    "sim.charge_balance_tolerance": (0.02, {"baselines", "validate", "bound"}),
     "sim.workers": (1, set()),
-    "sim.soc_min": (0.44, {"baselines", "doe", "heldout", "judge", "oracle", "optimise", "bayes", "validate"}),
-    "baseline.prius.n_r": (80, {"baselines", "validate"}),
-    "baseline.conventional.gear_ratios": ([13.2, 7.35, 4.91, 3.49, 2.6], {"components", "baselines", "validate"}),
-    "baseline.conventional.body.drag_coefficient": (0.3, {"components", "baselines", "validate"}),
+    "sim.soc_min": (
+        0.44,
+        {"baselines", "doe", "heldout", "judge", "oracle", "optimise", "bayes", "validate", "bound"},
+    ),
+    "baseline.prius.n_r": (80, {"baselines", "validate", "bound"}),
+    "baseline.conventional.gear_ratios": (
+        [13.2, 7.35, 4.91, 3.49, 2.6],
+        {"components", "baselines", "validate", "bound"},
+    ),
+    "baseline.conventional.body.drag_coefficient": (0.3, {"components", "baselines", "validate", "bound"}),
+    "bound.soc_step": (0.001, {"bound"}),
     "screen.seed": (7, {"pareto"}),
     "screen.min_v_max_kmh": (120.0, {"judge", "oracle", "optimise", "bayes", "pareto", "validate"}),
     "validate.cycles": (["ftp", "hwfet"], {"validate"}),
