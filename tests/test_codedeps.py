@@ -166,7 +166,18 @@ def test_a_docstring_edit_in_a_plot_module_reruns_only_the_stages_that_draw_plot
     clone = tmp_path / "clone"
     subprocess.run(["git", "clone", "-q", str(REPO), str(clone)], check=True)
     env = {**os.environ, "DVC_NO_ANALYTICS": "1"}
-    plotting = {"cycles", "components", "baselines", "surrogates", "oracle", "optimise", "bayes", "pareto", "validate"}
+    plotting = {
+        "cycles",
+        "components",
+        "baselines",
+        "surrogates",
+        "oracle",
+        "optimise",
+        "bayes",
+        "pareto",
+        "validate",
+        "bound",
+    }
     assert _stages_rerun_by(clone, env, "hevlib/plots/__init__.py") == set()  # the committed lock is current
 
     def edit_docstring(rel: str) -> None:
