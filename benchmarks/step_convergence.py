@@ -6,7 +6,12 @@ The fixed set: the conventional car, the stock Prius, the 27 L27 designs and the
 charge-balanced fuel (SAE J1711 1 %), tailpipe HC, CO and NOx, the speed deviation, the engine starts and
 whether the cycle was met, and the largest move of each against the 1 s step; ``--out`` writes the table.
 
-    python benchmarks/step_convergence.py [--steps 1 0.25 0.1] [--cycles ftp hwfet us06 udds] [--out FILE]
+``--audit`` adds where a move comes from: per cycle and step, the median over the vehicles of the charge-balanced
+run's energy terms that depend on the engine's dynamics (:data:`AUDIT`: the carrier's inertia work while running,
+the starts' energy, the battery's and the generator's losses, the engine's time on, the force-limited steps),
+each against the vehicle's own at the first step.
+
+    python benchmarks/step_convergence.py [--steps 1 0.25 0.1] [--cycles ftp hwfet us06 udds] [--out FILE] [--audit]
 """
 
 from __future__ import annotations
@@ -26,11 +31,14 @@ from hevlib.cycles import Cycle, build_cycles, resample
 from hevlib.design import DESIGN_VARS
 from hevlib.doe import l27_designs
 from hevlib.params import load_params
+from hevlib.sim.powertrain.layout import OUT_NAMES
 from hevlib.sim.simulator import Simulator, charge_balance, responses, simulate
 from hevlib.sizing import study_library
 
 ROOT = Path(__file__).resolve().parents[1]
 FIGURES = ("fc", "fc_charge_balanced", "hc", "co", "nox")
+#: Energy terms of the charge-balanced run (``OUT_NAMES``, J or counts) that ``--audit`` follows across steps.
+AUDIT = ("e_fuel_j", "e_engine_inertia_j", "e_engine_start_j", "e_loss_batt_j", "e_loss_gen_j", "n_limited")
 
 
 def resampled(cycle: Cycle, dt_s: float) -> Cycle:
@@ -55,11 +63,16 @@ def run_one(sim: Simulator, label: str, X: np.ndarray | None, cycle: Cycle) -> p
     vehicle = sim.vehicle(X, kind)
     first = simulate(vehicle, cycle)
     r = responses(first, cycle, vehicle.library)
-    _, cb = charge_balance(vehicle, cycle, first, tolerance=0.01, max_runs=10)
+    last, cb = charge_balance(vehicle, cycle, first, tolerance=0.01, max_runs=10)
     n = len(r)
     names = [label] if n == 1 else [f"{label}-{i + 1}" for i in range(n)]
+    out = np.asarray(last.out)
+    dt = float(cycle.time_s[1] - cycle.time_s[0])
+    audit = {k: out[:, OUT_NAMES.index(k)] for k in AUDIT}
+    audit["engine_on_s"] = out[:, OUT_NAMES.index("eng_on_steps")] * dt
     return pd.DataFrame(
         {
+            **audit,
             "vehicle": names,
             "fc": r["fc"].to_numpy(),
             "fc_charge_balanced": cb["fc_charge_balanced"].to_numpy(),
@@ -110,11 +123,34 @@ def moves(t: pd.DataFrame, ref_step: float) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def audit(t: pd.DataFrame, ref_step: float) -> pd.DataFrame:
+    """Per cycle and step: the median over the vehicles (those that meet the cycle at both steps) of each
+    :data:`AUDIT` term and the engine's time on, as the move against the vehicle's own at ``ref_step`` (energies
+    in MJ, times in s, counts as they are) and the median charge-balanced fuel move in %."""
+    keys = [*AUDIT, "engine_on_s"]
+    ref = t[t.step_s == ref_step].set_index(["cycle", "vehicle"])
+    rows = []
+    for (cyc, dt), g in t[t.step_s != ref_step].groupby(["cycle", "step_s"]):
+        g = g.set_index(["cycle", "vehicle"])
+        r = ref.loc[g.index]
+        both = (g.cycle_met & r.cycle_met).to_numpy()
+        row = {"cycle": cyc, "step_s": dt, "vehicles": int(both.sum())}
+        row["fc_cb_pct"] = float(np.nanmedian(100 * (g.fc_charge_balanced / r.fc_charge_balanced - 1)[both]))
+        for k in keys:
+            scale = 1e-6 if k.endswith("_j") else 1.0
+            row[k.removesuffix("_j") + ("_mj" if k.endswith("_j") else "")] = (
+                float(np.median(((g[k] - r[k]) * scale)[both])) if both.any() else np.nan
+            )
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--steps", type=float, nargs="+", default=[1.0, 0.25, 0.1])
     ap.add_argument("--cycles", nargs="+", default=["ftp", "hwfet", "us06", "udds"])
     ap.add_argument("--out", type=Path)
+    ap.add_argument("--audit", action="store_true", help="where the moves come from (module docstring)")
     a = ap.parse_args()
     t0 = time.perf_counter()
     t = table(a.steps, a.cycles)
@@ -122,6 +158,8 @@ def main() -> None:
         t.to_csv(a.out, index=False)
     pd.set_option("display.width", 250, "display.max_columns", 40)
     print(moves(t, a.steps[0]).round(3).to_string(index=False))
+    if a.audit:
+        print(audit(t, a.steps[0]).round(3).to_string(index=False))
     print(f"wall {time.perf_counter() - t0:.0f} s")
 
 
