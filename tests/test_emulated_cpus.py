@@ -1,6 +1,6 @@
 """One answer on CPUs of another vendor and generation: the torch primitives the BoTorch sources use, and a small
-BoTorch ParEGO run, give the same bytes natively and under QEMU's user-mode emulation of an Intel Haswell and an
-AMD EPYC (Milan) CPU.
+BoTorch ParEGO run and a small batch Thompson-sampling ParEGO run, give the same bytes natively and under QEMU's
+user-mode emulation of an Intel Haswell and an AMD EPYC (Milan) CPU.
 
 The emulator answers the CPUID instruction as that CPU would (vendor, model, features), and the numeric libraries
 pick their code paths from it when they load, as they would on that machine; the arithmetic itself is IEEE in
@@ -75,6 +75,8 @@ if "bo" in sys.argv:  # a whole BoTorch ParEGO loop (GP fits, qLogNParEGO, the m
     import test_bayesopt
     run = test_bayesopt._run("parego", seed=1, budget=23)
     out["parego_designs"] = h(run.X)
+    import test_tsparego  # batch Thompson-sampling ParEGO: fits, pathwise samples, picks (one round of 10)
+    out["tsparego_designs"] = h(test_tsparego._run(3, budget=40).X)
 out["cpu"] = {k: bool(__cpu_features__.get(k)) for k in ("AVX2", "FMA3", "AVX512F")}
 out["routed"] = determinism.vector_math_routed()
 out["problems"] = determinism.check()
