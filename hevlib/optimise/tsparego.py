@@ -249,15 +249,14 @@ def tsparego(
     j_sd = OBJECTIVES.index("speed_dev")
     while len(X) < settings.budget:
         t0 = time.perf_counter()
-        Y = R[list(OBJECTIVES)].to_numpy(dtype=float)
-        ran = ~R["stalled"].to_numpy(dtype=bool) & np.all(np.isfinite(Y), axis=1)
+        Y, ran = _ran(R)
         T, tf = _targets(Y[ran], log_targets)
+        lab = np.where(ran, -1.0, 1.0)[:, None]  # the failure model's labels: +1 stalled
         refit = len(rounds) % settings.refit_every == 0
         if refit:
             sub = _subset(int(ran.sum()), settings.subset, rng)
             hyper = fit_hyper(space, X[ran][sub], T[sub], hyper)
             if (~ran).any():
-                lab = np.where(ran, -1.0, 1.0)[:, None]
                 sub_f = _subset(len(X), settings.subset, rng)
                 hyper_f = fit_hyper(space, X[sub_f], lab[sub_f], hyper_f, noise=LABEL_NOISE)
         t_fit = time.perf_counter() - t0
@@ -265,7 +264,6 @@ def tsparego(
         paths = Paths(space, X[ran], T, hyper, q, settings.n_features, rng)
         feas = None
         if hyper_f is not None and (~ran).any():
-            lab = np.where(ran, -1.0, 1.0)[:, None]
             feas = Paths(space, X, lab, hyper_f, q, settings.n_features, rng)
         front = nondominated_mask(to_minimisation(Y[ran]))
         P = candidate_pool(problem, space, X[ran][front], edge, settings, rng)
@@ -321,12 +319,17 @@ def tsparego(
     return TsParegoRun(X, R, rounds)
 
 
+def _ran(R: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """(objectives (n, 11), which designs ran: not stalled, every objective finite)."""
+    Y = R[list(OBJECTIVES)].to_numpy(dtype=float)
+    return Y, ~R["stalled"].to_numpy(dtype=bool) & np.all(np.isfinite(Y), axis=1)
+
+
 def _improves(front: np.ndarray, R_new: pd.DataFrame) -> bool:
     """A round's success for the trust region: a new design that ran dominates a design of the last front (with
-    eleven objectives nearly every new design is merely non-dominated, which says nothing of progress)."""
-    Y = R_new[list(OBJECTIVES)].to_numpy(dtype=float)
-    Y = Y[~R_new["stalled"].to_numpy(dtype=bool) & np.all(np.isfinite(Y), axis=1)]
-    if not len(Y) or not len(front):
+    eleven objectives nearly every new design is merely non-dominated, which says nothing of progress): a member
+    of the front drops out of the non-dominated set once the new designs join it."""
+    Y, ran = _ran(R_new)
+    if not ran.any() or not len(front):
         return False
-    A, B = to_minimisation(Y)[:, None, :], to_minimisation(front)[None, :, :]
-    return bool(np.any(np.all(A <= B, axis=2) & np.any(A < B, axis=2)))
+    return not nondominated_mask(to_minimisation(np.vstack([front, Y[ran]])))[: len(front)].all()
