@@ -32,7 +32,17 @@ def _run(n, n_steps, X, t_init):
         k, temp = th_.start(40.0 + i % 30, X, t_init, 1.0, o, np.empty(th_.N_SCRATCH))
         for t in range(n_steps):
             on = 1.0 if t % 7 < 4 else 0.0
-            s = th_.ThermalStep(True, 1.2 * on, 2e4 * on, 250.0 * on, 0.01 * on, 0.05 * on, 0.01 * on, 10.0, 1.0)
+            s = th_.ThermalStep(
+                key_on=True,
+                fuel_g_s=1.2 * on,
+                q_waste_w=2e4 * on,
+                w_e_rad_s=250.0 * on,
+                hc_g_s=0.01 * on,
+                co_g_s=0.05 * on,
+                nox_g_s=0.01 * on,
+                v_mps=10.0,
+                dt_s=1.0,
+            )
             th_.thermal_step(temp, k, X, s, o)
             th_.check_light_off(temp, X, t + 1.0, o)
     return out

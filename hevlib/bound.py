@@ -92,6 +92,11 @@ class BoundGrid(NamedTuple):
     n_speed: int
     n_torque: int
 
+    @classmethod
+    def from_params(cls, bound) -> BoundGrid:
+        """The grid of the ``bound`` params group."""
+        return cls(soc_step=bound.soc_step, n_speed=bound.n_speed, n_torque=bound.n_torque)
+
 
 class StepControls(NamedTuple):
     """Every step's admissible controls (``n_steps = len(cycle) - 1``; ``K`` the most engine-on candidates kept
@@ -132,11 +137,11 @@ def _front(fuel: np.ndarray, p_batt: np.ndarray, n: int) -> np.ndarray:
 
 @njit(cache=True)
 def step_controls(veh: HybridRec, i: int, cyc: KernelCycle, n_speed: int, n_torque: int, k_max: int):
-    """The admissible controls of design ``i`` of ``veh`` on every step of ``cyc`` (:class:`StepControls`'
-    fields in order), each evaluated by the simulator's own dispatch with the battery unconstrained (the pack's
+    """The admissible controls of design ``i`` of ``veh`` on every step of ``cyc`` (a :class:`StepControls`), each
+    evaluated by the simulator's own dispatch with the battery unconstrained (the pack's
     limits depend on the SOC: the DP checks them per state)."""
     row, c, sc, E, M, G = veh.rows[i], veh.c, veh.sc, veh.E, veh.M, veh.G
-    v_ref, _grade, sin_g, cos_g, key_on = cyc
+    v_ref, sin_g, cos_g, key_on = cyc.v_ref, cyc.sin_g, cyc.cos_g, cyc.key_on
     d = split_design(row, c, sc)
     ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c, sc), c)
     dt = c.dt
@@ -186,7 +191,10 @@ def step_controls(veh: HybridRec, i: int, cyc: KernelCycle, n_speed: int, n_torq
         lim = split.limits(v_req, d, E, M, G)
         short = f_req - SHORT_TOL * max(1.0, f_req)
         # ---- the engine off (spun with its fuel cut where the ring is too fast for a stopped carrier)
-        st = split.dispatch(lim, split.SplitCommand(f_cmd, False, 0.0, INF, INF, regen), d, E, M, G)
+        off = split.SplitCommand(
+            f_req_n=f_cmd, engine_on=False, p_e_target_w=0.0, p_dis_w=INF, p_chg_w=INF, regen_share=regen
+        )
+        st = split.dispatch(lim, off, d, E, M, G)
         off_ok[t] = not (f_req > 0.0 and st.f_del < short)
         p_off[t] = st.p_batt
         # braking: the regenerative share the pack cannot take goes to the friction brakes (the dispatch's rule)
@@ -210,10 +218,14 @@ def step_controls(veh: HybridRec, i: int, cyc: KernelCycle, n_speed: int, n_torq
             w_e = lim.lo if n_speed == 1 else lim.lo + (lim.hi - lim.lo) * a / (n_speed - 1)
             w_g = sun_speed(w_e, lim.w_r, d.n_r, d.n_s)
             t_cap = min(max_torque(w_e, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
-            pinned = split.SplitLimits(lim.w_r, lim.t_m_cap, w_e, w_e, w_e * t_cap, 0.0, 0.0)
+            pinned = split.SplitLimits(
+                w_r=lim.w_r, t_m_cap=lim.t_m_cap, lo=w_e, hi=w_e, p_e_max=w_e * t_cap, w_ref=0.0, j_dt=0.0
+            )
             for b in range(n_torque):
                 t_e = t_cap * b / (n_torque - 1) if n_torque > 1 else t_cap
-                cmd = split.SplitCommand(f_cmd, True, t_e * w_e, INF, INF, regen)
+                cmd = split.SplitCommand(
+                    f_req_n=f_cmd, engine_on=True, p_e_target_w=t_e * w_e, p_dis_w=INF, p_chg_w=INF, regen_share=regen
+                )
                 st = split.dispatch(pinned, cmd, d, E, M, G)
                 if not st.running or (f_req > 0.0 and st.f_del < short):
                     continue
@@ -235,7 +247,23 @@ def step_controls(veh: HybridRec, i: int, cyc: KernelCycle, n_speed: int, n_torq
             fuel_k[t, j], p_on_k[t, j], w_k[t, j], t_k[t, j] = fuel_c[q], p_c[q], w_c[q], t_c[q]
             shed_k[t, j] = shed_c[q]
             gm_k[t, j], ge_k[t, j] = gm_c[q], ge_c[q]
-    return key_off, off_ok, p_off, shed_off, w_off, p_start, n_on, fuel_k, p_on_k, shed_k, w_k, t_k, gm_k, ge_k, v_mean
+    return StepControls(
+        key_off=key_off,
+        off_ok=off_ok,
+        p_off_w=p_off,
+        shed_off_w=shed_off,
+        w_off=w_off,
+        p_start_w=p_start,
+        n_on=n_on,
+        fuel_g_s=fuel_k,
+        p_on_w=p_on_k,
+        shed_on_w=shed_k,
+        w_e=w_k,
+        t_e=t_k,
+        p_gen_mech_w=gm_k,
+        p_gen_elec_w=ge_k,
+        v_mean_mps=v_mean,
+    )
 
 
 @njit(cache=True, inline="always")
@@ -281,10 +309,13 @@ def _admitted(p: float, shed: float, p_dis: float, p_chg: float) -> float:
 
 
 @njit(cache=True)
-def _best(J1: np.ndarray, soc: float, e_prev: int, t: int, ctl, pack, soc_lo: float, step: float, dt: float, cap):
+def _best(
+    J1: np.ndarray, soc: float, e_prev: int, t: int, ctl: StepControls, pack, soc_lo: float, step: float, dt: float, cap
+):
     """(cost, engine on, candidate, next SOC, charge moved) of the best control of step ``t`` from ``soc`` with the
     engine's state ``e_prev`` on the step before; ``J1`` the cost-to-go of step ``t + 1`` (off, on)."""
-    key_off, off_ok, p_off, shed_off, _w_off, p_start, n_on, fuel, p_on, shed_on = ctl[:10]
+    key_off, off_ok, p_off, shed_off, p_start = ctl.key_off, ctl.off_ok, ctl.p_off_w, ctl.shed_off_w, ctl.p_start_w
+    n_on, fuel, p_on, shed_on = ctl.n_on, ctl.fuel_g_s, ctl.p_on_w, ctl.shed_on_w
     ocv, r_d, r_c, p_dis, p_chg, eta_c = pack
     if key_off[t]:
         return _cost_to_go(J1[0], soc, soc_lo, step), 0, -1, soc, 0.0, 0.0
@@ -307,7 +338,7 @@ def _best(J1: np.ndarray, soc: float, e_prev: int, t: int, ctl, pack, soc_lo: fl
 
 
 @njit(cache=True)
-def bound_kernel(veh: HybridRec, i: int, ctl, soc0: float, soc_step: float, record: np.ndarray):
+def bound_kernel(veh: HybridRec, i: int, ctl: StepControls, soc0: float, soc_step: float, record: np.ndarray):
     """Backward recursion of the cost-to-go on the SOC grid, then the forward pass from ``soc0`` with the engine off
     (the drive's start). Fills and returns an ``O_*`` row of the bound's run (what
     :func:`hevlib.sim.simulator.responses` reads: fuel, distance, energies, starts) and ``record`` (n_steps + 1,
@@ -317,8 +348,8 @@ def bound_kernel(veh: HybridRec, i: int, ctl, soc0: float, soc_step: float, reco
     row, c, sc, B = veh.rows[i], veh.c, veh.sc, veh.B
     n_bat = row[R_N_BAT]
     dt, cap, eta_c = c.dt, sc.cap_as, sc.eta_c
-    key_off, _off_ok, _p_off, _shed_off, _w_off, _p_start, _n_on, fuel, _p_on, _shed_on, w_e, t_e, p_gm, p_ge = ctl[:14]
-    v_mean = ctl[14]
+    key_off, fuel, w_e, t_e = ctl.key_off, ctl.fuel_g_s, ctl.w_e, ctl.t_e
+    p_gm, p_ge, v_mean = ctl.p_gen_mech_w, ctl.p_gen_elec_w, ctl.v_mean_mps
     n = key_off.shape[0]
     soc_lo = sc.soc_min
     n_soc = int(round((sc.soc_max - sc.soc_min) / soc_step)) + 1
@@ -398,7 +429,7 @@ def gear_bound_kernel(veh: ConventionalRec, i: int, cyc: KernelCycle) -> np.ndar
     (no battery; shifts cost nothing here) the least sum is the sum of the least. Returns an ``O_*`` row; SOC end
     NaN and ``O_N_STEPS`` the step where no gear drives it."""
     row, c, ratios, d, E = veh.rows[i], veh.c, veh.ratios, veh.cd, veh.E
-    v_ref, _grade, sin_g, cos_g, key_on = cyc
+    v_ref, sin_g, cos_g, key_on = cyc.v_ref, cyc.sin_g, cyc.cos_g, cyc.key_on
     m = row[R_MASS]
     dt = c.dt
     o = np.zeros(L.N_O)
@@ -502,9 +533,12 @@ def fuel_bound(vehicle, cycle: Cycle, grid: BoundGrid, soc_init: float | None = 
     soc0 = float(veh.rows[0, R_SOC0]) if soc_init is None else float(soc_init)
     k_max = grid.n_speed * grid.n_torque
     ctl = step_controls(veh, 0, cycle.to_kernel(), grid.n_speed, grid.n_torque, k_max)
-    kept = ctl[6]
+    kept = ctl.n_on
     k_used = max(int(kept.max()), 1)
-    ctl = (*ctl[:7], *(a[:, :k_used].copy() for a in ctl[7:14]), ctl[14])
+    per_candidate = ("fuel_g_s", "p_on_w", "shed_on_w", "w_e", "t_e", "p_gen_mech_w", "p_gen_elec_w")
+    ctl = StepControls(
+        **{f: getattr(ctl, f)[:, :k_used].copy() if f in per_candidate else getattr(ctl, f) for f in ctl._fields}
+    )
     record = np.zeros((cycle.n_steps, len(TRACE_COLUMNS)))
     o = bound_kernel(veh, 0, ctl, soc0, grid.soc_step, record)
     if not np.isfinite(o[L.O_SOC_END]):
@@ -513,7 +547,15 @@ def fuel_bound(vehicle, cycle: Cycle, grid: BoundGrid, soc_init: float | None = 
     run = RunOutput(o[None, :], np.zeros((1, 3)), np.asarray(vehicle.mass_kg, float), None, np.array([soc0]))
     r = responses(run, cycle, vehicle.library).drop(columns=["v_max", "f_max", "t_0_100_s"]).iloc[0].to_dict()
     on = kept[kept > 0]
-    return Bound(r, o, soc0, float(o[L.O_SOC_END]), record, float(np.median(on)) if on.size else 0.0, int(kept.max()))
+    return Bound(
+        responses=r,
+        out=o,
+        soc_init=soc0,
+        soc_end=float(o[L.O_SOC_END]),
+        trace=record,
+        kept_median=float(np.median(on)) if on.size else 0.0,
+        kept_max=int(kept.max()),
+    )
 
 
 def bound_trace(bound: Bound, cycle: Cycle) -> pd.DataFrame:

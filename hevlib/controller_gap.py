@@ -300,4 +300,4 @@ def bound_study(
     rec_bound, convergence = grid_convergence(vehicles[recommended], cycles[first], grid, soc0)
     rule_trace = sim.trace(np.asarray(designs[recommended], float).reshape(1, -1), cycles[first], soc_init=soc0)
     report = gap_report(table, grid, recommended, convergence)
-    return BoundStudy(report, table, rec_bound, rule_trace)
+    return BoundStudy(report=report, table=table, recommended_bound=rec_bound, recommended_rule_trace=rule_trace)

@@ -128,7 +128,13 @@ class Cycle:
         """This cycle as the kernels read it (contiguous arrays; the road angle's sine and cosine once)."""
         sin_g, cos_g = grade_trig(self.grade)
         f = np.ascontiguousarray
-        return KernelCycle(f(self.speed_mps, float), f(self.grade, float), sin_g, cos_g, f(self.key_on, bool))
+        return KernelCycle(
+            v_ref=f(self.speed_mps, float),
+            grade=f(self.grade, float),
+            sin_g=sin_g,
+            cos_g=cos_g,
+            key_on=f(self.key_on, bool),
+        )
 
     # ------------------------------------------------------------------ persistence
     def to_parquet(self, path: str | Path) -> None:
@@ -244,7 +250,7 @@ def read_raw_trace(path: str | Path) -> RawTrace:
                 f"{path}: {gcol} at line {i + 2} is {str(df[gcol].iloc[i])!r}: not a number within "
                 f"+-{MAX_GRADE / RAW_GRADE_UNITS[gcol]:g}"
             )
-    return RawTrace(time_s, speed, grade)
+    return RawTrace(time_s=time_s, speed_mps=speed, grade=grade)
 
 
 def read_raw_cycle(path: str | Path) -> tuple[np.ndarray, np.ndarray]:

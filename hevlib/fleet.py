@@ -220,7 +220,7 @@ def predict_car(raw: dict, car: epa.Car, categories: list[str], cycles: dict) ->
         apply_overrides(raw, car_overrides(car, base.baseline, base.epa)), f"params.yaml with {car.name}"
     )
     kind = "prius" if car.kind == epa.POWER_SPLIT else "conventional"
-    grid = BoundGrid(params.bound.soc_step, params.bound.n_speed, params.bound.n_torque)
+    grid = BoundGrid.from_params(params.bound)
     out = {}
     with Simulator(study_library(params.baseline), params) as sim:
         vehicle = sim.vehicle(None, kind)

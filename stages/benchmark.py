@@ -87,9 +87,7 @@ def benchmark_run_stage(
     doe = read_table(DOE)
     X_doe = doe[list(DESIGN_VARS)].to_numpy(dtype=float)
     R_doe = doe[list(RESPONSES)]
-
-    def simulate(X):
-        return sim.run(X, cycle, vehicle="hybrid", batch_size=cfg.doe.batch_size)
+    simulate = sim.on_cycle(cycle, cfg.doe.batch_size)
 
     for k in todo:
         t0 = time.perf_counter()

@@ -42,7 +42,7 @@ def bound(
     if recommended not in designs:
         raise ValueError(f"{validation}: the recommended design {recommended} is not among the picks of {selected}")
     cycles = {name: cycle_named(name) for name in p.bound.cycles}
-    grid = BoundGrid(p.bound.soc_step, p.bound.n_speed, p.bound.n_torque)
+    grid = BoundGrid.from_params(p.bound)
     with progress_callback("bound") as progress:
         study = bound_study(simulator(p), designs, recommended, cycles, grid, progress)
     first = p.bound.cycles[0]

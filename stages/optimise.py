@@ -60,14 +60,11 @@ def optimise_stage(
     sim, cycle = sizing_setup(cfg)
     make_problem = partial(sizing_problem, cfg, sim.mass_kg)
 
-    def simulate(X):
-        return sim.run(X, cycle, vehicle="hybrid", batch_size=cfg.doe.batch_size)
-
     doe_df = read_table(DOE)
     # the one normalisation every source is judged on: screen-passing designs of the judged scale's reference
     # set, which no source produced; it only scores (HvSettings), never steers a search
     hv = HvSettings.from_params(judged_normalisation(read_table(REFERENCE), cfg.screen), o, cfg.screen)
-    log = SimulationLog(simulate)  # every simulation the source makes: its archive
+    log = SimulationLog(sim.on_cycle(cycle, cfg.doe.batch_size))  # every simulation the source makes: its archive
 
     if source == "oracle":
         settings = o.oracle
@@ -96,11 +93,7 @@ def optimise_stage(
         ref = _oracle_report()
         log.record(doe_df[list(DESIGN_VARS)].to_numpy(dtype=float), doe_df[list(RESPONSES)])  # the DOE counts
         X, Y = training_data(doe_df, what=str(DOE))
-        space = cfg.design_space.space()
-
-        def fit(X_train, Y_train):
-            return fit_surrogate(settings.surrogate, X_train, Y_train, cfg.surrogate, space)
-
+        fit = partial(fit_surrogate, settings.surrogate, params=cfg.surrogate, space=cfg.design_space.space())
         label = f"{source}: {o.infill.rounds + 1} rounds"
         with progress_callback(label) as cb:
             result = surrogate_assisted(

@@ -93,12 +93,23 @@ def test_thermal_short_cuts_are_the_formulas_value_exactly():
 
 
 def test_a_step_with_no_heat_at_ambient_changes_nothing_and_one_degree_off_does(sim):
+    _ambient_step = T.ThermalStep(
+        key_on=True,
+        fuel_g_s=0.0,
+        q_waste_w=0.0,
+        w_e_rad_s=0.0,
+        hc_g_s=0.0,
+        co_g_s=0.0,
+        nox_g_s=0.0,
+        v_mps=12.0,
+        dt_s=1.0,
+    )
     cfg = sim.library.thermal["hybrid"]
     k = T.design_constants(40.0, cfg, 1.0, 60.0)
     temp = np.full(T.N_NODES, cfg.amb_c)
     o = np.zeros(N_O)
-    tp = T.thermal_step(temp, k, cfg, T.ThermalStep(True, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 12.0, 1.0), o)
+    tp = T.thermal_step(temp, k, cfg, _ambient_step, o)
     assert tp == (0.0, 0.0, 0.0) and (temp == cfg.amb_c).all() and not o.any()
     temp[T.N_MON] += 1.0  # one node off ambient: the full step runs and the monolith cools
-    T.thermal_step(temp, k, cfg, T.ThermalStep(True, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 12.0, 1.0), o)
+    T.thermal_step(temp, k, cfg, _ambient_step, o)
     assert cfg.amb_c < temp[T.N_MON] < cfg.amb_c + 1.0 and o.any()

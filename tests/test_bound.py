@@ -20,7 +20,7 @@ from hevlib.sim.powertrain import layout as L
 from hevlib.sim.simulator import charge_balance, responses, simulate
 
 #: A coarse grid: the tests' bounds in seconds (the params' finer grid moves them by < 0.3 %).
-COARSE = BoundGrid(0.001, 12, 12)
+COARSE = BoundGrid(soc_step=0.001, n_speed=12, n_torque=12)
 
 
 @pytest.fixture(scope="module")

@@ -78,9 +78,10 @@ ROWS = {
 }
 
 
-def test_thresholds_follow_documented_order(pms, th):
-    expected = [x for k in KEYS for x in (getattr(pms, k).value, getattr(pms, k).width)]
-    assert th.dtype == float and th.tolist() == expected
+def test_thresholds_carry_each_pms_key_by_name(pms, th):
+    for k in KEYS:
+        assert (getattr(th, k), getattr(th, f"{k}_width")) == (getattr(pms, k).value, getattr(pms, k).width)
+    assert len(th) == 2 * len(KEYS)
 
 
 @pytest.mark.parametrize("case", ROWS.values(), ids=ROWS.keys())

@@ -310,7 +310,20 @@ def test_the_road_force_of_a_coast_down_is_a_plus_b_v_plus_c_v2_on_the_flat(lib)
     rl = road_load(body, lib.wheel_conventional, m)
     assert (rl.axle0_nm, rl.axle_per_kg_nm, rl.k_lin) == (0.0, 0.0, b)  # no axle drag: the coast-down has it
     g = body.gravity_m_s2
-    ch = Chassis(m, m + 40.0, rl.cda, rl.crr, 0.316, 0.0, 0.16, 0.6, 0.9, body.air_density_kg_m3, g, rl.k_lin)
+    ch = Chassis(
+        m=m,
+        m_eff=m + 40.0,
+        cda=rl.cda,
+        crr=rl.crr,
+        r=0.316,
+        axle_drag_nm=0.0,
+        h_over_l=0.16,
+        f_front=0.6,
+        mu=0.9,
+        rho=body.air_density_kg_m3,
+        g=g,
+        k_lin=rl.k_lin,
+    )
     for v_mph in (5.0, 20.0, 50.0, 80.0):
         v = v_mph * 0.44704
         aero, roll, grade, axle = road_force(v, 0.0, 1.0, ch)

@@ -320,7 +320,16 @@ def test_battery_rint_model_round_trip_and_limits():
         i = current_for_power(p, voc, r_d, r_c)
         r = r_d if i >= 0 else r_c
         assert voc * i - r * i * i == pytest.approx(p, abs=1e-6)
-    lim = PackLimits(150.0, 292.5, 200.0, 0.4, 0.8, 7.4 * 3600, 0.99, 1.0)
+    lim = PackLimits(
+        v_min_v=150.0,
+        v_max_v=292.5,
+        i_max_a=200.0,
+        soc_min=0.4,
+        soc_max=0.8,
+        capacity_as=7.4 * 3600,
+        eta_c=0.99,
+        dt_s=1.0,
+    )
     p_dis, p_chg = power_limits(voc, r_d, r_c, 0.6, lim)
     i_dis = current_for_power(p_dis, voc, r_d, r_c)
     i_chg = current_for_power(-p_chg, voc, r_d, r_c)
@@ -331,7 +340,20 @@ def test_battery_rint_model_round_trip_and_limits():
 
 
 def test_adhesion_and_force_speed_solution():
-    ch = Chassis(1200.0, 1260.0, 0.387, 0.009, 0.282, 6.4, 0.16, 0.55, 0.9, 1.2, 9.81, 0.0)
+    ch = Chassis(
+        m=1200.0,
+        m_eff=1260.0,
+        cda=0.387,
+        crr=0.009,
+        r=0.282,
+        axle_drag_nm=6.4,
+        h_over_l=0.16,
+        f_front=0.55,
+        mu=0.9,
+        rho=1.2,
+        g=9.81,
+        k_lin=0.0,
+    )
     f = adhesion_limit(0.0, 1.0, 0.0, ch)
     a = f / ch.m_eff
     # at that force the front load (with the load transfer of that acceleration) is exactly mu times it
@@ -367,7 +389,7 @@ def test_force_limited_step_converges_from_the_envelope_and_without_it(sim):
     assert row.shape == (N_R,)
     c, sc, E, M, G = veh.c, veh.sc, veh.E, veh.M, veh.G
     d = split_design(row, c, sc)
-    dl = split.SplitDriveline(d, E, M, G)
+    dl = split.SplitDriveline(d=d, E=E, M=M, G=G)
     ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c, sc), c)
     p_dis, p_chg = pack_limits(0.6, row[R_N_BAT], sc, veh.B, c.dt)
     sn, cs = np.sin(np.arctan(0.2)), np.cos(np.arctan(0.2))
@@ -375,10 +397,13 @@ def test_force_limited_step_converges_from_the_envelope_and_without_it(sim):
 
     def solve(v0, v_req, env):
         lim = split.limits(v_req, d, E, M, G)
-        cmd = split.SplitCommand(f_cmd, ON, lim.p_e_max, p_dis, p_chg, 1.0)
+        cmd = split.SplitCommand(
+            f_req_n=f_cmd, engine_on=ON, p_e_target_w=lim.p_e_max, p_dis_w=p_dis, p_chg_w=p_chg, regen_share=1.0
+        )
         st = split.dispatch(lim, cmd, d, E, M, G)
-        reach = CarrierReach(0.0, np.inf, 0.0)
-        st, v, u, env = limited_step_split(v0, v_req, v_req, cmd, StepRoad(sn, cs, 1.0), st, env, reach, ch, dl)
+        reach = CarrierReach(w_from_rad_s=0.0, dw_rad_s=np.inf, j_dt=0.0)
+        road = StepRoad(sin_g=sn, cos_g=cs, dt_s=1.0)
+        st, v, u, env = limited_step_split(v0, v_req, v_req, cmd, road, st, env, reach, ch, dl)
         lim = split.limits(v, d, E, M, G)
         assert st == split.dispatch(lim, split.at_power(cmd, lim.p_e_max), d, E, M, G)  # the state at v
         assert abs(u - v) <= SPEED_TOL and u == mean_speed_for_force(v0, st.f_del, sn, cs, 1.0, ch)

@@ -58,7 +58,23 @@ def test_catalyst_heats_with_exhaust_and_cools_without_it_as_a_lumped_capacity(c
     tau = k[T.N_MON] / (h_c * k[T.K_A_MONI])
     o = np.zeros(N_O)
     for _ in range(200):
-        T.thermal_step(temp, k, c, T.ThermalStep(True, fuel, q_waste, w, 0.0, 0.0, 0.0, 0.0, 1.0), o)
+        T.thermal_step(
+            temp,
+            k,
+            c,
+            T.ThermalStep(
+                key_on=True,
+                fuel_g_s=fuel,
+                q_waste_w=q_waste,
+                w_e_rad_s=w,
+                hc_g_s=0.0,
+                co_g_s=0.0,
+                nox_g_s=0.0,
+                v_mps=0.0,
+                dt_s=1.0,
+            ),
+            o,
+        )
     expected = t_gas - (t_gas - 20.0) * np.exp(-200.0 / tau)
     assert temp[T.N_MON] == pytest.approx(expected, rel=2e-3)
     assert 20.0 < temp[T.N_MON] < t_gas
@@ -69,7 +85,23 @@ def test_catalyst_heats_with_exhaust_and_cools_without_it_as_a_lumped_capacity(c
     temp = np.full(T.N_NODES, 20.0)
     temp[T.N_MON] = t0
     for _ in range(300):
-        T.thermal_step(temp, k, c, T.ThermalStep(False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0), o)
+        T.thermal_step(
+            temp,
+            k,
+            c,
+            T.ThermalStep(
+                key_on=False,
+                fuel_g_s=0.0,
+                q_waste_w=0.0,
+                w_e_rad_s=0.0,
+                hc_g_s=0.0,
+                co_g_s=0.0,
+                nox_g_s=0.0,
+                v_mps=0.0,
+                dt_s=1.0,
+            ),
+            o,
+        )
     assert temp[T.N_MON] == pytest.approx(20.0 + (t0 - 20.0) * np.exp(-g * 300.0 / k[T.N_MON]), rel=2e-3)
 
 
@@ -84,7 +116,17 @@ def test_conversion_follows_the_table_and_breakthrough_caps_it(cfg, t_mon):
         temp,
         k,
         cfg._replace(cold_correction=False),
-        T.ThermalStep(True, 1.0, 3e4, 300.0, *eo, 10.0, 1.0),
+        T.ThermalStep(
+            key_on=True,
+            fuel_g_s=1.0,
+            q_waste_w=3e4,
+            w_e_rad_s=300.0,
+            hc_g_s=eo[0],
+            co_g_s=eo[1],
+            nox_g_s=eo[2],
+            v_mps=10.0,
+            dt_s=1.0,
+        ),
         np.zeros(N_O),
     )
     assert tp == pytest.approx(tuple(e * (1 - f) for e, f in zip(eo, eff, strict=True)), rel=1e-12)

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import numpy as np
 from numba import njit
 
 from hevlib.sim.powertrain.engine import EngineArrays, line_power_for_torque, max_torque
@@ -41,20 +40,36 @@ def above(x: float, value: float, width: float) -> float:
     return 0.0 if f < 0.0 else (1.0 if f > 1.0 else f)
 
 
-@njit(cache=True)
-def rule_strengths(soc: float, grade: float, speed_kmh: float, torque_frac: float, th) -> tuple:
-    """Firing strengths (r1..r7) of the rule base.
+class Thresholds(NamedTuple):
+    """The rule base's thresholds, each a value and the width of its trapezoid (the ``pms`` params of the same
+    names, :func:`thresholds`)."""
 
-    ``th`` = (soc_low v, w, soc_high v, w, grade_low v, w, grade_high v, w, speed_high v, w,
-    torque_low v, w, torque_high v, w) as a float array.
-    """
-    soc_gt_low = above(soc, th[0], th[1])
-    soc_gt_high = above(soc, th[2], th[3])
-    g_gt_low = above(grade, th[4], th[5])
-    g_gt_high = above(grade, th[6], th[7])
-    v_gt_high = above(speed_kmh, th[8], th[9])
-    t_gt_low = above(torque_frac, th[10], th[11])
-    t_gt_high = above(torque_frac, th[12], th[13])
+    soc_low: float
+    soc_low_width: float
+    soc_high: float  # also the SOC above which the engine charges nothing (:func:`supervise`)
+    soc_high_width: float
+    grade_low: float  # rise over run
+    grade_low_width: float
+    grade_high: float
+    grade_high_width: float
+    speed_high_kmh: float
+    speed_high_kmh_width: float
+    torque_low: float  # share of the ring torque the driveline can give
+    torque_low_width: float
+    torque_high: float
+    torque_high_width: float
+
+
+@njit(cache=True)
+def rule_strengths(soc: float, grade: float, speed_kmh: float, torque_frac: float, th: Thresholds) -> tuple:
+    """Firing strengths (r1..r7) of the rule base with the thresholds ``th``."""
+    soc_gt_low = above(soc, th.soc_low, th.soc_low_width)
+    soc_gt_high = above(soc, th.soc_high, th.soc_high_width)
+    g_gt_low = above(grade, th.grade_low, th.grade_low_width)
+    g_gt_high = above(grade, th.grade_high, th.grade_high_width)
+    v_gt_high = above(speed_kmh, th.speed_high_kmh, th.speed_high_kmh_width)
+    t_gt_low = above(torque_frac, th.torque_low, th.torque_low_width)
+    t_gt_high = above(torque_frac, th.torque_high, th.torque_high_width)
     soc_lt_low, soc_lt_high = 1.0 - soc_gt_low, 1.0 - soc_gt_high
     g_lt_low, g_lt_high = 1.0 - g_gt_low, 1.0 - g_gt_high
     v_lt_high = 1.0 - v_gt_high
@@ -85,7 +100,8 @@ def decide(
 
 
 class PmsConfig(NamedTuple):
-    """Crisp settings of the supervisory controller (fuzzy thresholds travel as an array)."""
+    """Crisp settings of the supervisory controller (the fuzzy thresholds are :class:`Thresholds`; the SOC window
+    is the pack's, ``SplitConfig.soc_min``, handed to :func:`supervise`)."""
 
     on_threshold: float
     min_on_s: float
@@ -93,8 +109,6 @@ class PmsConfig(NamedTuple):
     p_min_w: float  # engine power floor while running
     charge_frac: float  # charging power as a share of rated engine power at full charge degree
     soc_target: float
-    soc_min: float
-    soc_high: float  # no charging from the engine above this SOC
     t_warmup_c: float  # coolant below this: the engine stays on until warm (-inf: rule off)
     p_full_w: float  # road power at or above which a running engine is asked for full power (inf: rule off)
 
@@ -112,24 +126,26 @@ class Observed(NamedTuple):
     t_coolant_c: float
 
 
-def thresholds(pms) -> np.ndarray:
-    """The 14-value threshold array ``rule_strengths`` reads, from the ``pms`` params group."""
-    keys = ("soc_low", "soc_high", "grade_low", "grade_high", "speed_high_kmh", "torque_low", "torque_high")
-    return np.array([x for key in keys for x in (getattr(pms, key).value, getattr(pms, key).width)], dtype=float)
+def thresholds(pms) -> Thresholds:
+    """The rule base's :class:`Thresholds` from the ``pms`` params group (each key's ``value`` and ``width``)."""
+    keys = [f for f in Thresholds._fields if not f.endswith("_width")]
+    named = {key: float(getattr(pms, key).value) for key in keys}
+    return Thresholds(**named, **{f"{key}_width": float(getattr(pms, key).width) for key in keys})
 
 
 @njit(cache=True, inline="always")
 def supervise(
     obs: Observed,
     lim: SplitLimits,
-    th: np.ndarray,
+    th: Thresholds,
     pc: PmsConfig,
+    soc_min: float,
     d: SplitDesign,
     E: EngineArrays,
     M: MachineArrays,
 ) -> tuple[bool, float]:
     """Engine ON/OFF and target engine power (W) for the next step, from what the controller sees (``obs``) and
-    the driveline's limits at this step's speed (``lim``).
+    the driveline's limits at this step's speed (``lim``); ``soc_min``: the bottom of the SOC window.
 
     Order of authority: physics first (the engine cannot run when its speed window is empty; it must run
     whenever it can and the battery alone cannot carry the traction or the accessory load), then the
@@ -141,7 +157,8 @@ def supervise(
     below target), floored at ``p_min_w``, capped by what the engine can give; boost, or road power at or
     above ``p_full_w`` (ADVISOR's Prius), = full power.
     """
-    engine_on, t_in_state_s, soc, grade, v_kmh, t_r_req, p_dis, t_coolant_c = obs
+    engine_on, t_in_state_s, soc, grade, v_kmh = obs.engine_on, obs.t_in_state_s, obs.soc, obs.grade, obs.v_kmh
+    t_r_req, p_dis, t_coolant_c = obs.t_r_req_nm, obs.p_dis_w, obs.t_coolant_c
     w_r, t_m_cap = lim.w_r, lim.t_m_cap
     can_run = lim.lo <= lim.hi
     k = d.n_r / d.n_s
@@ -175,8 +192,8 @@ def supervise(
         # of road power the engine runs at the top of its window at full torque
         return True, p_max
     p_rated = d.s_eng * E.line_p[-1]
-    soc_deficit = min(max((pc.soc_target - soc) / max(pc.soc_target - pc.soc_min, 1e-9), 0.0), 1.0)
-    p_charge = pc.charge_frac * p_rated * max(charge_deg, soc_deficit) if soc < pc.soc_high else 0.0
+    soc_deficit = min(max((pc.soc_target - soc) / max(pc.soc_target - soc_min, 1e-9), 0.0), 1.0)
+    p_charge = pc.charge_frac * p_rated * max(charge_deg, soc_deficit) if soc < th.soc_high else 0.0
     p = max(t_r_req, 0.0) * w_r / d.eta_pg + d.p_acc_w + p_charge
     if t_r_req > t_m_cap:
         # the motor alone lacks torque: the engine's ring share must cover the rest

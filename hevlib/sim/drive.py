@@ -18,7 +18,7 @@ from numba import njit
 from hevlib.cycles import KernelCycle
 from hevlib.lookup import cell, interp1_np
 from hevlib.scaling import in_series
-from hevlib.sim.control import Observed, PmsConfig, supervise
+from hevlib.sim.control import Observed, PmsConfig, Thresholds, supervise
 from hevlib.sim.powertrain import conventional as conv
 from hevlib.sim.powertrain import hybrid as split
 from hevlib.sim.powertrain import layout as L  # O_*, T_* column indices (compile-time constants)
@@ -74,7 +74,6 @@ class SplitConfig(NamedTuple):
     """Scalars of the power split alone, shared by every design of a batch: gear set, machines, pack,
     controller window, electrical accessories, engine start (the conventional car has none of them)."""
 
-    soc_init: float
     soc_min: float
     soc_max: float
     eta_pg: float
@@ -104,7 +103,7 @@ class HybridRec(NamedTuple):
     rows: np.ndarray  # (n, N_R) per-design rows, R_* columns
     c: DriveConfig
     sc: SplitConfig
-    th: np.ndarray  # fuzzy thresholds of the rule base (hevlib.sim.control.thresholds)
+    th: Thresholds  # of the fuzzy rule base (hevlib.sim.control.thresholds)
     pc: PmsConfig
     E: EngineArrays
     M: MachineArrays
@@ -162,7 +161,9 @@ class ConvCommand(NamedTuple):
 @njit(cache=True, inline="always")
 def _key_off(dt: float) -> th_.ThermalStep:
     """What a key-off step (nothing runs) of length ``dt`` hands the thermal nodes."""
-    return th_.ThermalStep(OFF, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt)
+    return th_.ThermalStep(
+        key_on=OFF, fuel_g_s=0.0, q_waste_w=0.0, w_e_rad_s=0.0, hc_g_s=0.0, co_g_s=0.0, nox_g_s=0.0, v_mps=0.0, dt_s=dt
+    )
 
 
 #: Achieved speed below which the car counts as standing still, m/s (and the trace as asking it to move
@@ -178,18 +179,18 @@ N_R = 9
 @njit(cache=True, inline="always")
 def chassis(m: float, m_eff: float, c: DriveConfig) -> Chassis:
     return Chassis(
-        m,
-        m_eff,
-        c.cda,
-        c.crr,
-        c.r,
-        c.axle0_nm + c.axle_per_kg_nm * m,
-        c.h_over_l,
-        c.f_front,
-        c.mu,
-        c.rho,
-        c.g,
-        c.k_lin,
+        m=m,
+        m_eff=m_eff,
+        cda=c.cda,
+        crr=c.crr,
+        r=c.r,
+        axle_drag_nm=c.axle0_nm + c.axle_per_kg_nm * m,
+        h_over_l=c.h_over_l,
+        f_front=c.f_front,
+        mu=c.mu,
+        rho=c.rho,
+        g=c.g,
+        k_lin=c.k_lin,
     )
 
 
@@ -228,20 +229,20 @@ def driveline_brake_share(v: float, c: DriveConfig) -> float:
 @njit(cache=True, inline="always")
 def split_design(row: np.ndarray, c: DriveConfig, sc: SplitConfig) -> split.SplitDesign:
     return split.SplitDesign(
-        row[R_S_ENG],
-        row[R_S_MOT],
-        row[R_S_GEN],
-        row[R_I0],
-        row[R_N_R],
-        row[R_N_S],
-        c.r,
-        sc.w_e_min,
-        sc.w_e_max,
-        sc.w_m_max,
-        sc.w_g_max,
-        sc.eta_pg,
-        sc.eta_fd,
-        sc.p_acc_w,
+        s_eng=row[R_S_ENG],
+        s_mot=row[R_S_MOT],
+        s_gen=row[R_S_GEN],
+        i0=row[R_I0],
+        n_r=row[R_N_R],
+        n_s=row[R_N_S],
+        r=c.r,
+        w_e_min=sc.w_e_min,
+        w_e_max=sc.w_e_max,
+        w_m_max=sc.w_m_max,
+        w_g_max=sc.w_g_max,
+        eta_pg=sc.eta_pg,
+        eta_fd=sc.eta_fd,
+        p_acc_w=sc.p_acc_w,
     )
 
 
@@ -265,19 +266,20 @@ def pack_state(soc: float, n_bat: float, B: BatteryArrays) -> tuple[float, float
 
 @njit(cache=True, inline="always")
 def pack_power_limits(
-    ocv: float, r_d: float, r_c: float, soc: float, soc_floor: float, n_bat: float, sc: SplitConfig, dt: float
+    ocv: float, r_d: float, r_c: float, soc: float, soc_min: float, n_bat: float, sc: SplitConfig, dt: float
 ):
     """(max discharge, max charge) terminal power of the pack in state (``ocv``, ``r_d``, ``r_c``) at ``soc`` over a
-    step ``dt``, W, discharging down to ``soc_floor`` (the controller's window: ``sc.soc_min``)."""
+    step ``dt``, W, discharging down to ``soc_min`` (the controller's window, ``sc.soc_min``; 0 for what the pack
+    itself can give)."""
     lim = PackLimits(
-        in_series(sc.v_min_mod, n_bat),
-        in_series(sc.v_max_mod, n_bat),
-        sc.i_max_a,
-        soc_floor,
-        sc.soc_max,
-        sc.cap_as,
-        sc.eta_c,
-        dt,
+        v_min_v=in_series(sc.v_min_mod, n_bat),
+        v_max_v=in_series(sc.v_max_mod, n_bat),
+        i_max_a=sc.i_max_a,
+        soc_min=soc_min,
+        soc_max=sc.soc_max,
+        capacity_as=sc.cap_as,
+        eta_c=sc.eta_c,
+        dt_s=dt,
     )
     return power_limits(ocv, r_d, r_c, soc, lim)
 
@@ -309,7 +311,7 @@ def _book_engine(o, fuel, hc, co, nox, p_shaft, lhv_j_per_g, dt):
 @njit(cache=True, inline="always")
 def _exhaust(o, nodes: th_.ThermalNodes, s: th_.ThermalStep, t, tr, record):
     """Thermal nodes and tailpipe emissions of step ``t`` (and their trace channels)."""
-    temp, k, X = nodes
+    temp, k, X = nodes.temp_c, nodes.k, nodes.cfg
     tp_hc, tp_co, tp_nox = th_.thermal_step(temp, k, X, s, o)
     th_.check_light_off(temp, X, (t + 1) * s.dt_s, o)
     if record:
@@ -328,7 +330,7 @@ def _engine_step(o, nodes: th_.ThermalNodes, op: EngineOp, s_eng, E, c, v_avg, t
     """One key-on step of the engine at ``op``: fuel and engine-out rates from the hot maps times the cold-engine
     factors of the block temperature (none while it does not run), its energy terms, then the thermal nodes and
     the tailpipe (:func:`_exhaust`). Returns the fuel rate, g/s."""
-    running, w_e, t_e = op
+    running, w_e, t_e = op.running, op.w_e_rad_s, op.t_e_nm
     temp, X = nodes.temp_c, nodes.cfg
     fuel = hot = hc = co = nox = 0.0
     if running:
@@ -343,7 +345,18 @@ def _engine_step(o, nodes: th_.ThermalNodes, op: EngineOp, s_eng, E, c, v_avg, t
     # ADVISOR's 'fc temp' takes the waste heat and the exhaust flow from the hot map's fuel: a cold engine's
     # surplus fuel leaves unburnt (the extra HC and CO of the cold factors) and heats nothing
     q_waste = hot * c.lhv_j_per_g - p_shaft
-    _exhaust(o, nodes, th_.ThermalStep(ON, hot, q_waste, w_e, hc, co, nox, v_avg, c.dt), t, tr, record)
+    step = th_.ThermalStep(
+        key_on=ON,
+        fuel_g_s=hot,
+        q_waste_w=q_waste,
+        w_e_rad_s=w_e,
+        hc_g_s=hc,
+        co_g_s=co,
+        nox_g_s=nox,
+        v_mps=v_avg,
+        dt_s=c.dt,
+    )
+    _exhaust(o, nodes, step, t, tr, record)
     return fuel
 
 
@@ -351,7 +364,7 @@ def _engine_step(o, nodes: th_.ThermalNodes, op: EngineOp, s_eng, E, c, v_avg, t
 def _book_wheel(o, f_del, v_disp, f_brake, v0, v_avg, limited, road: StepRoad, ch):
     """Work at the wheels (driveline, friction brakes) against road loads, grade and inertia; for a
     force-limited step also the residual of its speed fixed point."""
-    sn, cs, dt = road
+    sn, cs, dt = road.sin_g, road.cos_g, road.dt_s
     fa, fr, fg, fx = road_force(v_avg, sn, cs, ch)
     w_wheel = f_del * v_disp * dt
     if w_wheel >= 0.0:
@@ -453,9 +466,9 @@ def limited_step_split(
     ``SPEED_TOL``. The engine's speeds stay within the carrier's ``reach``
     (:func:`hevlib.sim.powertrain.hybrid.within_rate`).
     Returns (state, v_disp, v_avg, the envelope point and slope for the next solve)."""
-    sn, cs, dt = road
-    w_from, dw, j_dt = reach
-    d, E, M, G = dl
+    sn, cs, dt = road.sin_g, road.cos_g, road.dt_s
+    w_from, dw, j_dt = reach.w_from_rad_s, reach.dw_rad_s, reach.j_dt
+    d, E, M, G = dl.d, dl.E, dl.M, dl.G
     v_e, f_e, slope = env
     u = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch)
     v_a, f_a, h_a = v_req, st.f_del, u - v_req
@@ -503,8 +516,8 @@ def limited_step_split(
 @njit(cache=True)
 def limited_step_conv(v0, v_req, v_cap, cmd: ConvCommand, road: StepRoad, st, ch, d, E):
     """As :func:`limited_step_split` for the conventional car in a fixed gear and clutch state (fixed-point start)."""
-    f_cmd, ratio, slip = cmd
-    sn, cs, dt = road
+    f_cmd, ratio, slip = cmd.f_req_n, cmd.ratio, cmd.slip
+    sn, cs, dt = road.sin_g, road.cos_g, road.dt_s
     v_a = v_req
     h_a = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch) - v_a
     v_b = min(max(v_a + h_a, 0.0), v_cap)
@@ -523,7 +536,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
     veh, cyc, t_init, o, tr, scratch = borrowed((veh, cyc, t_init, o, tr, scratch))
     row, c, sc, th, pc = veh.rows[i], veh.c, veh.sc, veh.th, veh.pc
     E, M, G, B, X = veh.E, veh.M, veh.G, veh.B, veh.X
-    v_ref, grade, sin_g, cos_g, key_on = cyc
+    v_ref, grade, sin_g, cos_g, key_on = cyc.v_ref, cyc.grade, cyc.sin_g, cyc.cos_g, cyc.key_on
     d = split_design(row, c, sc)
     ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c, sc), c)
     n_bat = row[R_N_BAT]
@@ -539,12 +552,12 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
     soc_lo, soc_hi = soc, soc
     n = v_ref.shape[0]
     k_th, temp = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o, scratch)
-    nodes = th_.ThermalNodes(temp, k_th, X)
-    dl = split.SplitDriveline(d, E, M, G)
+    nodes = th_.ThermalNodes(temp_c=temp, k=k_th, cfg=X)
+    dl = split.SplitDriveline(d=d, E=E, M=M, G=G)
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]
-        road = StepRoad(sn, cs, dt)
+        road = StepRoad(sin_g=sn, cos_g=cs, dt_s=dt)
         v_ref_next = v_ref[t + 1]
         v_tgt = min(v_ref_next, v_lim)
         ocv, r_d, r_c = pack_state(soc, n_bat, B)
@@ -577,8 +590,17 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
             dw = dt * (1.0 + k) * torque_limit(sun_speed(w_from, lim.w_r, d.n_r, d.n_s), d.s_gen, G) / cdyn.j
             lim = split.within_rate(lim, w_from, dw, j_dt, d, E, G)
         t_r_req = split.ring_torque_for_wheel_force(f_cmd, d)
-        seen = Observed(eng_on, t_state, soc, gr, v0 * 3.6, t_r_req, p_dis, temp[th_.N_BLOCK])
-        want, p_target = supervise(seen, lim, th, pc, d, E, M)
+        seen = Observed(
+            engine_on=eng_on,
+            t_in_state_s=t_state,
+            soc=soc,
+            grade=gr,
+            v_kmh=v0 * 3.6,
+            t_r_req_nm=t_r_req,
+            p_dis_w=p_dis,
+            t_coolant_c=temp[th_.N_BLOCK],
+        )
+        want, p_target = supervise(seen, lim, th, pc, sc.soc_min, d, E, M)
         e_start = t_su = p_start = 0.0
         lim_off = lim  # the window without a start (a start narrows it to the carrier's reach from firing speed)
         if dynamics and want and not was_running:
@@ -606,7 +628,14 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
             # the start's battery power is held back from what the dispatch may use (below zero: the engine
             # charges it back within the step, so the controller's SOC window holds)
             p_dis_d, p_chg_d = p_dis - p_start, p_chg + p_start
-            cmd = split.SplitCommand(f_cmd, eng_on, p_target, p_dis_d, p_chg_d, regen)
+            cmd = split.SplitCommand(
+                f_req_n=f_cmd,
+                engine_on=eng_on,
+                p_e_target_w=p_target,
+                p_dis_w=p_dis_d,
+                p_chg_w=p_chg_d,
+                regen_share=regen,
+            )
             st = split.dispatch(lim, cmd, d, E, M, G)
             v_disp = v_req
             f_brake = 0.0
@@ -619,7 +648,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
                     st = split.dispatch(lim, split.at_power(cmd, lim.p_e_max), d, E, M, G)
                     limited = _falls_short(st.f_del, f_req)
                 if limited:
-                    reach = CarrierReach(w_from, dw, j_dt)
+                    reach = CarrierReach(w_from_rad_s=w_from, dw_rad_s=dw, j_dt=j_dt)
                     st, v_disp, v_avg, env = limited_step_split(v0, v_req, v_req, cmd, road, st, env, reach, ch, dl)
                 else:
                     v_avg = v_req
@@ -652,7 +681,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
             o[L.O_ENG_ON_STEPS] += 1.0
         elif st.w_e > 0.0:
             o[L.O_ENG_SPUN_STEPS] += 1.0  # spun by the gear set with its fuel cut
-        op = EngineOp(st.running, st.w_e, st.t_e)
+        op = EngineOp(running=st.running, w_e_rad_s=st.w_e, t_e_nm=st.t_e)
         fuel = _engine_step(o, nodes, op, d.s_eng, E, c, v_avg, t, tr, record)
         o[L.O_E_BATT] += p_chem * dt
         o[L.O_E_LOSS_BATT] += (p_chem - p_batt) * dt
@@ -744,7 +773,7 @@ def _conventional_one(veh: ConventionalRec, i: int, cyc: KernelCycle, t_init, o,
     # the caller's arrays through views that are not reference-counted (borrow.py)
     veh, cyc, t_init, o, tr, scratch = borrowed((veh, cyc, t_init, o, tr, scratch))
     row, c, ratios, S, d, E, X = veh.rows[i], veh.c, veh.ratios, veh.shift, veh.cd, veh.E, veh.X
-    v_ref, grade, sin_g, cos_g, key_on = cyc
+    v_ref, grade, sin_g, cos_g, key_on = cyc.v_ref, cyc.grade, cyc.sin_g, cyc.cos_g, cyc.key_on
     m = row[R_MASS]
     n_gears = ratios.shape[0]
     m_free = conventional_equivalent_mass_kg(m, 0.0, False, d.s_eng, c)  # clutch open
@@ -756,11 +785,11 @@ def _conventional_one(veh: ConventionalRec, i: int, cyc: KernelCycle, t_init, o,
     gear, g_1, g_2 = 0, 0, 0  # the gear held and those of the two steps before it (ADVISOR's downshift guard)
     clutch = conv.OPEN
     k_th, temp = th_.start(d.s_eng * X.p_base_kw, X, t_init, dt, o, scratch)
-    nodes = th_.ThermalNodes(temp, k_th, X)
+    nodes = th_.ThermalNodes(temp_c=temp, k=k_th, cfg=X)
     for t in range(n - 1):
         v0 = v
         gr, sn, cs = grade[t], sin_g[t], cos_g[t]
-        road = StepRoad(sn, cs, dt)
+        road = StepRoad(sin_g=sn, cos_g=cs, dt_s=dt)
         v_ref_next = v_ref[t + 1]
         v_tgt = min(v_ref_next, v_lim)
         stationary = v0 <= 1e-9 and v_tgt <= 1e-9
@@ -815,15 +844,15 @@ def _conventional_one(veh: ConventionalRec, i: int, cyc: KernelCycle, t_init, o,
                 v_avg = mean_speed_for_force(v0, 0.0, sn, cs, dt, ch)  # coasting with the clutch open
                 v_disp = v_avg
             else:
-                st, v_disp, v_avg = limited_step_conv(
-                    v0, v_req, v_req, ConvCommand(f_cmd, ratio, slip), road, st, ch, d, E
-                )
+                cmd = ConvCommand(f_req_n=f_cmd, ratio=ratio, slip=slip)
+                st, v_disp, v_avg = limited_step_conv(v0, v_req, v_req, cmd, road, st, ch, d, E)
         else:
             v_avg = v_req
             f_brake = f_req - st.f_del
         v_next = max(2.0 * v_avg - v0, 0.0)
         running = clutch != conv.OPEN or d.idle_allowed
-        fuel = _engine_step(o, nodes, EngineOp(running, st.w_e, st.t_e), d.s_eng, E, c, v_avg, t, tr, record)
+        op = EngineOp(running=running, w_e_rad_s=st.w_e, t_e_nm=st.t_e)
+        fuel = _engine_step(o, nodes, op, d.s_eng, E, c, v_avg, t, tr, record)
         if running:
             o[L.O_E_ACC] += d.p_acc_w * dt
             o[L.O_ENG_ON_STEPS] += 1.0

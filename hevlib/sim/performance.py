@@ -1,8 +1,8 @@
 """Flat-road performance tests (numba): full-power launch, 0-100 km/h time and top speed.
 
 Launch: from standstill with everything the driveline can give (engine at the top of its speed window
-when it can run, motor at its torque limit within the battery's discharge limit at the initial SOC),
-front-axle adhesion respected, stepped at ``dt``. ``f_max`` is the highest acceleration reached
+when it can run, motor at its torque limit within the battery's discharge limit at the drive's initial SOC,
+``sim.soc_init``), front-axle adhesion respected, stepped at ``dt``. ``f_max`` is the highest acceleration reached
 (m/s^2), ``t_0_100_s`` the time to 100 km/h (inf if not reached within ``t_max``). Top speed ``v_max``
 (km/h): the highest steady speed at which the available force still covers the road load, never
 above the speed the component speed limits allow through ``i0`` and the gear set (or gearbox).
@@ -21,6 +21,7 @@ from hevlib.sim.drive import (
     ON,
     R_MASS,
     R_N_BAT,
+    R_SOC0,
     CarrierReach,
     ConvCommand,
     ConventionalRec,
@@ -95,8 +96,9 @@ def _flat_impl(veh, i):
             row, c, sc = veh.rows[i], veh.c, veh.sc
             d = split_design(row, c, sc)
             ch = chassis(row[R_MASS], split_equivalent_mass_kg(row, c, sc), c)
-            p_dis, p_chg = pack_limits(sc.soc_init, row[R_N_BAT], sc, veh.B, c.dt)
-            return HybridFlat(ch, p_dis, p_chg, split.SplitDriveline(d, veh.E, veh.M, veh.G), split_speed_limit(d))
+            p_dis, p_chg = pack_limits(row[R_SOC0], row[R_N_BAT], sc, veh.B, c.dt)
+            dl = split.SplitDriveline(d=d, E=veh.E, M=veh.M, G=veh.G)
+            return HybridFlat(ch=ch, p_dis_w=p_dis, p_chg_w=p_chg, dl=dl, v_lim_mps=split_speed_limit(d))
 
         return hybrid
     if _is(veh, ConventionalRec):
@@ -104,7 +106,8 @@ def _flat_impl(veh, i):
         def conventional(veh, i):
             m, c, cd = veh.rows[i][R_MASS], veh.c, veh.cd
             ch = chassis(m, conventional_equivalent_mass_kg(m, 0.0, False, cd.s_eng, c), c)
-            return ConventionalFlat(ch, m, c, veh.ratios, cd, veh.E, cd.w_e_max * cd.r / veh.ratios[-1])
+            v_lim = cd.w_e_max * cd.r / veh.ratios[-1]
+            return ConventionalFlat(ch=ch, m_kg=m, c=c, ratios=veh.ratios, cd=cd, E=veh.E, v_lim_mps=v_lim)
 
         return conventional
     return None
@@ -116,7 +119,9 @@ def _hybrid_state(v, f: HybridFlat):
     ch, dl = f.ch, f.dl
     f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
     lim = split.limits(v, dl.d, dl.E, dl.M, dl.G)
-    cmd = split.SplitCommand(f_cmd, ON, lim.p_e_max, f.p_dis_w, f.p_chg_w, 1.0)
+    cmd = split.SplitCommand(
+        f_req_n=f_cmd, engine_on=ON, p_e_target_w=lim.p_e_max, p_dis_w=f.p_dis_w, p_chg_w=f.p_chg_w, regen_share=1.0
+    )
     return cmd, split.dispatch(lim, cmd, dl.d, dl.E, dl.M, dl.G)
 
 
@@ -138,10 +143,9 @@ def _launch_step_impl(v, dt, f, env):
 
         def hybrid(v, dt, f, env):
             cmd, st = _hybrid_state(v, f)
-            reach = CarrierReach(0.0, np.inf, 0.0)
-            _, _, v_avg, env = limited_step_split(
-                v, v, f.v_lim_mps, cmd, StepRoad(0.0, 1.0, dt), st, env, reach, f.ch, f.dl
-            )
+            reach = CarrierReach(w_from_rad_s=0.0, dw_rad_s=np.inf, j_dt=0.0)
+            flat = StepRoad(sin_g=0.0, cos_g=1.0, dt_s=dt)
+            _, _, v_avg, env = limited_step_split(v, v, f.v_lim_mps, cmd, flat, st, env, reach, f.ch, f.dl)
             return v_avg, env
 
         return hybrid
@@ -152,12 +156,12 @@ def _launch_step_impl(v, dt, f, env):
             ch, m, c, ratios, cd, E = f.ch, f.m_kg, f.c, f.ratios, f.cd, f.E
             f_cmd = min(BIG_FORCE, adhesion_limit(0.0, 1.0, road_total(v, 0.0, 1.0, ch), ch))
             v_avg = 0.0
-            road = StepRoad(0.0, 1.0, dt)
+            road = StepRoad(sin_g=0.0, cos_g=1.0, dt_s=dt)
             for g in range(ratios.shape[0]):
                 engaged = conv.clutch_closed(v, ratios[g], cd)  # the engine is reflected
                 st_c = conv.dispatch(v, f_cmd, ratios[g], not engaged, cd, E)
                 ch_g = chassis(m, conventional_equivalent_mass_kg(m, ratios[g], engaged, cd.s_eng, c), c)
-                cmd = ConvCommand(f_cmd, ratios[g], not engaged)
+                cmd = ConvCommand(f_req_n=f_cmd, ratio=ratios[g], slip=not engaged)
                 v_avg = max(v_avg, limited_step_conv(v, v, f.v_lim_mps, cmd, road, st_c, ch_g, cd, E)[2])
             return v_avg, env
 

@@ -17,6 +17,7 @@ import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numba
@@ -28,6 +29,7 @@ from hevlib.components import ComponentLibrary
 from hevlib.cycles import Cycle
 from hevlib.design import BOOL_RESPONSES, CHARGE_BALANCE_RESPONSES, DESIGN_VARS, OBJECTIVES, RESPONSES
 from hevlib.params import Params
+from hevlib.scaling import power_scale
 from hevlib.sim.drive import R_SOC0, drive_conventional, drive_hybrid
 from hevlib.sim.executor import LocalExecutor, executor_for
 from hevlib.sim.performance import performance_batch
@@ -274,10 +276,10 @@ def failure_ceilings(cycle: Cycle, library: KernelLibrary) -> dict[str, float]:
     lib, sim = library.lib, library.params.sim
     j = DESIGN_VARS.index("p_eng_kw")
     engines = (
-        (lib.engine_hybrid, library.space.upper[j] / lib.engine_hybrid.peak_power_kw),
+        (lib.engine_hybrid, power_scale(library.space.upper[j], lib.engine_hybrid.peak_power_kw)),
         (
             lib.engine_conventional,
-            library.params.baseline.conventional.p_eng_kw / lib.engine_conventional.peak_power_kw,
+            power_scale(library.params.baseline.conventional.p_eng_kw, lib.engine_conventional.peak_power_kw),
         ),
     )
     km = sim.min_distance_share * cycle.distance_m / 1e3
@@ -397,6 +399,11 @@ class Simulator:
         thermal start for the cycle unless ``thermal_start`` (:func:`thermal_start_c`) says otherwise."""
         veh = self.vehicle(X, vehicle)
         return simulate(veh, cycle, thermal_start=thermal_start, record=record, performance=performance)
+
+    def on_cycle(self, cycle: Cycle, batch_size: int) -> Callable[[np.ndarray], pd.DataFrame]:
+        """The hybrid designs' responses on ``cycle`` as a function of the designs alone (what the optimisers
+        and their simulation log call): :meth:`run` in batches of ``batch_size``."""
+        return partial(self.run, cycle=cycle, vehicle="hybrid", batch_size=batch_size)
 
     def run(
         self,

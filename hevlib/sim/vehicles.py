@@ -32,7 +32,8 @@ from hevlib.components import (
 from hevlib.design import DESIGN_VARS, DesignSpace, design_vector
 from hevlib.lookup import resample, uniform_axis
 from hevlib.params import Params
-from hevlib.sim.control import PmsConfig, thresholds
+from hevlib.scaling import power_scale
+from hevlib.sim.control import PmsConfig, Thresholds, thresholds
 from hevlib.sim.drive import (
     N_R,
     R_I0,
@@ -78,16 +79,20 @@ def engine_arrays(engine: EngineMap) -> EngineArrays:
         for m in (engine.fuel_g_s, engine.hc_g_s, engine.co_g_s, engine.nox_g_s)
     ]
     f = np.ascontiguousarray
+    fuel, hc, co, nox = (f(m) for m in maps)
     return EngineArrays(
-        float(gw[0]),
-        float(gw[1] - gw[0]),
-        float(gt[1]),
-        f(resample(engine.speed_rad_s, None, engine.max_torque_nm, gw)),
-        *(f(m) for m in maps),
-        f(p, float),
-        f(w, float),
-        f(t, float),
-        f(resample(engine.speed_rad_s, None, engine.closed_throttle_torque_nm, gw)),
+        w0=float(gw[0]),
+        dw=float(gw[1] - gw[0]),
+        dt=float(gt[1]),
+        t_max=f(resample(engine.speed_rad_s, None, engine.max_torque_nm, gw)),
+        fuel=fuel,
+        hc=hc,
+        co=co,
+        nox=nox,
+        line_p=f(p, float),
+        line_w=f(w, float),
+        line_t=f(t, float),
+        t_drag=f(resample(engine.speed_rad_s, None, engine.closed_throttle_torque_nm, gw)),
     )
 
 
@@ -159,10 +164,10 @@ def machine_arrays(machine: MachineMap) -> MachineArrays:
     gw, gt = uniform_axis(machine.speed_rad_s), uniform_axis(machine.torque_nm)
     f = np.ascontiguousarray
     return MachineArrays(
-        float(gw[1]),
-        float(gt[1]),
-        f(resample(machine.speed_rad_s, machine.torque_nm, machine.efficiency, gw, gt)),
-        f(resample(machine.speed_rad_s, None, machine.max_torque_nm, gw)),
+        dw=float(gw[1]),
+        dt=float(gt[1]),
+        eff=f(resample(machine.speed_rad_s, machine.torque_nm, machine.efficiency, gw, gt)),
+        t_max=f(resample(machine.speed_rad_s, None, machine.max_torque_nm, gw)),
     )
 
 
@@ -170,12 +175,15 @@ def battery_arrays(module) -> BatteryArrays:
     if module.soc[0] != 0.0:
         raise ValueError(f"battery {module.name}: SOC axis must start at 0")
     g = uniform_axis(module.soc)
+
+    def on_grid(a):
+        return np.ascontiguousarray(resample(module.soc, None, a, g))
+
     return BatteryArrays(
-        float(g[1]),
-        *(
-            np.ascontiguousarray(resample(module.soc, None, a, g))
-            for a in (module.ocv_v, module.r_dis_ohm, module.r_chg_ohm)
-        ),
+        dsoc=float(g[1]),
+        ocv_v=on_grid(module.ocv_v),
+        r_dis_ohm=on_grid(module.r_dis_ohm),
+        r_chg_ohm=on_grid(module.r_chg_ohm),
     )
 
 
@@ -202,9 +210,16 @@ def road_load(body: Body, wheel: Wheel, test_mass_kg: float) -> RoadLoad:
     abc = body.coast_down
     if abc is None:
         cda = body.drag_coefficient * body.frontal_area_m2
-        return RoadLoad(cda, wheel.rolling_resistance, 0.0, wheel.axle_drag_nm_at_0kg, wheel.axle_drag_nm_per_kg)
+        return RoadLoad(
+            cda=cda,
+            crr=wheel.rolling_resistance,
+            k_lin=0.0,
+            axle0_nm=wheel.axle_drag_nm_at_0kg,
+            axle_per_kg_nm=wheel.axle_drag_nm_per_kg,
+        )
     a, b, c = abc
-    return RoadLoad(2.0 * c / body.air_density_kg_m3, a / (test_mass_kg * body.gravity_m_s2), b, 0.0, 0.0)
+    crr = a / (test_mass_kg * body.gravity_m_s2)
+    return RoadLoad(cda=2.0 * c / body.air_density_kg_m3, crr=crr, k_lin=b, axle0_nm=0.0, axle_per_kg_nm=0.0)
 
 
 def drive_config(params: Params, body: Body, wheel: Wheel, engine: EngineMap, test_mass_kg: float) -> DriveConfig:
@@ -240,7 +255,6 @@ def split_config(lib: ComponentLibrary, params: Params) -> SplitConfig:
     sim = params.sim
     ps, bat = lib.power_split, lib.battery
     return SplitConfig(
-        soc_init=sim.soc_init,
         soc_min=sim.soc_min,
         soc_max=sim.soc_max,
         eta_pg=sim.planetary_efficiency,
@@ -278,7 +292,7 @@ class KernelLibrary:
     motor: MachineArrays
     generator: MachineArrays
     pack: BatteryArrays
-    thresholds: np.ndarray  #: the fuzzy rule base's thresholds
+    thresholds: Thresholds  #: the fuzzy rule base's thresholds
     pms: PmsConfig
     configs: Mapping[str, DriveConfig]  #: per kind: body, wheels, brakes, fuel
     split: SplitConfig  #: the power split's gear set, machines, pack and engine start (both hybrid kinds)
@@ -316,28 +330,34 @@ class KernelLibrary:
             ),
         }
         e = lib.engine_conventional
-        gearbox = ConvDesign(
-            base.conventional.p_eng_kw / e.peak_power_kw,
-            lib.wheel_conventional.radius_m,
-            lib.conventional_idle_rad_s,
-            lib.conventional_launch_rad_s,
-            e.max_speed_rad_s,
-            lib.accessory_conventional.mechanical_w,
-            *map(float, lib.gearbox.loss_coefficients),
-            lib.conventional_control.idle_allowed,
-            lib.conventional_control.clutch_opens_without_torque,
-        )
         ctl = lib.conventional_control
+        gb_a, gb_b, gb_c, gb_d, gb_e, gb_f = map(float, lib.gearbox.loss_coefficients)  # the file's a .. f
+        gearbox = ConvDesign(
+            s_eng=power_scale(base.conventional.p_eng_kw, e.peak_power_kw),
+            r=lib.wheel_conventional.radius_m,
+            w_idle=lib.conventional_idle_rad_s,
+            w_launch=lib.conventional_launch_rad_s,
+            w_e_max=e.max_speed_rad_s,
+            p_acc_w=lib.accessory_conventional.mechanical_w,
+            gb_a=gb_a,
+            gb_b=gb_b,
+            gb_c=gb_c,
+            gb_d=gb_d,
+            gb_e=gb_e,
+            gb_f=gb_f,
+            idle_allowed=ctl.idle_allowed,
+            clutch_opens=ctl.clutch_opens_without_torque,
+        )
         if ctl.shift_delay_s != 0.0:
             raise ValueError(f"PTC_CONV: shift_delay_s {ctl.shift_delay_s} s: only instant shifts are modelled")
         f = np.ascontiguousarray
         shift = ShiftLogic(
-            base.conventional.shift_logic == "load",
-            f(ctl.upshift_speed_rad_s, float),
-            f(ctl.upshift_load, float),
-            f(ctl.downshift_speed_rad_s, float),
-            f(ctl.downshift_load, float),
-            f(base.conventional.upshift_kmh, float),
+            load_based=base.conventional.shift_logic == "load",
+            up_w=f(ctl.upshift_speed_rad_s, float),
+            up_load=f(ctl.upshift_load, float),
+            dn_w=f(ctl.downshift_speed_rad_s, float),
+            dn_load=f(ctl.downshift_load, float),
+            upshift_kmh=f(base.conventional.upshift_kmh, float),
         )
         return cls(
             lib=lib,
@@ -350,16 +370,14 @@ class KernelLibrary:
             pack=battery_arrays(lib.battery),
             thresholds=thresholds(pms),
             pms=PmsConfig(
-                pms.engine_on_threshold,
-                pms.engine_min_on_s,
-                pms.engine_min_off_s,
-                pms.engine_min_power_kw * 1e3,
-                pms.charge_power_fraction,
-                pms.soc_target,
-                sim.soc_min,
-                pms.soc_high.value,
-                lib.power_split.coolant_warmup_temperature_c if pms.coolant_warmup else -np.inf,
-                pms.full_power_above_kw * 1e3 if pms.full_power_above_kw is not None else np.inf,
+                on_threshold=pms.engine_on_threshold,
+                min_on_s=pms.engine_min_on_s,
+                min_off_s=pms.engine_min_off_s,
+                p_min_w=pms.engine_min_power_kw * 1e3,
+                charge_frac=pms.charge_power_fraction,
+                soc_target=pms.soc_target,
+                t_warmup_c=lib.power_split.coolant_warmup_temperature_c if pms.coolant_warmup else -np.inf,
+                p_full_w=pms.full_power_above_kw * 1e3 if pms.full_power_above_kw is not None else np.inf,
             ),
             configs=configs,
             split=split_config(lib, params),
@@ -444,11 +462,11 @@ class Vehicle:
         rows = np.zeros((X.shape[0], N_R))
         d = dict(zip(DESIGN_VARS, X.T, strict=True))
         if kind == "conventional":
-            rows[:, R_S_ENG] = d["p_eng_kw"] / lib.engine_conventional.peak_power_kw
+            rows[:, R_S_ENG] = power_scale(d["p_eng_kw"], lib.engine_conventional.peak_power_kw)
         else:
-            rows[:, R_S_ENG] = d["p_eng_kw"] / lib.engine_hybrid.peak_power_kw
-            rows[:, R_S_MOT] = d["p_mot_kw"] / lib.motor.peak_power_kw
-            rows[:, R_S_GEN] = d["p_gen_kw"] / lib.generator.peak_power_kw
+            rows[:, R_S_ENG] = power_scale(d["p_eng_kw"], lib.engine_hybrid.peak_power_kw)
+            rows[:, R_S_MOT] = power_scale(d["p_mot_kw"], lib.motor.peak_power_kw)
+            rows[:, R_S_GEN] = power_scale(d["p_gen_kw"], lib.generator.peak_power_kw)
             rows[:, R_I0] = d["i0"]
             rows[:, R_N_BAT] = d["n_bat"]
             rows[:, R_N_R] = d["n_r"]
@@ -457,10 +475,22 @@ class Vehicle:
         rows[:, R_SOC0] = library.params.sim.soc_init
         c, E, th = library.configs[kind], library.engines[kind], library.thermal[kind]
         if kind == "conventional":
-            kernel = ConventionalRec(rows, c, E, library.ratios, library.shift, library.gearbox, th)
+            kernel = ConventionalRec(
+                rows=rows, c=c, E=E, ratios=library.ratios, shift=library.shift, cd=library.gearbox, X=th
+            )
         else:
-            M, G, B = library.motor, library.generator, library.pack
-            kernel = HybridRec(rows, c, library.split, library.thresholds, library.pms, E, M, G, B, th)
+            kernel = HybridRec(
+                rows=rows,
+                c=c,
+                sc=library.split,
+                th=library.thresholds,
+                pc=library.pms,
+                E=E,
+                M=library.motor,
+                G=library.generator,
+                B=library.pack,
+                X=th,
+            )
         return cls(kind, pd.DataFrame(X, columns=list(DESIGN_VARS)), kernel, library)
 
     def with_soc_init(self, soc: np.ndarray | float) -> Vehicle:

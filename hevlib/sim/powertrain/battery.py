@@ -44,7 +44,8 @@ def power_limits(voc: float, r_dis: float, r_chg: float, soc: float, lim: PackLi
     Limits: terminal voltage within [v_min, v_max], |current| <= i_max, matched-load power, and the
     SOC window (the step may not take SOC outside [soc_min, soc_max]).
     """
-    v_min, v_max, i_max, soc_min, soc_max, capacity_as, eta_c, dt = lim
+    v_min, v_max, i_max, dt = lim.v_min_v, lim.v_max_v, lim.i_max_a, lim.dt_s
+    soc_min, soc_max, capacity_as, eta_c = lim.soc_min, lim.soc_max, lim.capacity_as, lim.eta_c
     i_dis = min(i_max, (voc - v_min) / r_dis, voc / (2.0 * r_dis), (soc - soc_min) * capacity_as / dt)
     i_dis = max(i_dis, 0.0)
     p_dis = voc * i_dis - r_dis * i_dis * i_dis

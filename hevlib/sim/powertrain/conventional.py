@@ -136,8 +136,19 @@ def clutch_closed(v: float, ratio: float, d: ConvDesign) -> bool:
 def open_state(d: ConvDesign) -> ConvState:
     """Clutch open: the engine idles carrying the accessories, or stands still (``idle_allowed`` false)."""
     if not d.idle_allowed:
-        return ConvState(0.0, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    return ConvState(0.0, False, d.w_idle, d.p_acc_w / d.w_idle, 0.0, 0.0, 0.0, 0.0)
+        return ConvState(
+            f_del=0.0, engaged=False, w_e=0.0, t_e=0.0, w_in=0.0, t_in=0.0, loss_gb_w=0.0, loss_clutch_w=0.0
+        )
+    return ConvState(
+        f_del=0.0,
+        engaged=False,
+        w_e=d.w_idle,
+        t_e=d.p_acc_w / d.w_idle,
+        w_in=0.0,
+        t_in=0.0,
+        loss_gb_w=0.0,
+        loss_clutch_w=0.0,
+    )
 
 
 @njit(cache=True)
@@ -165,7 +176,9 @@ def dispatch(v: float, f: float, ratio: float, slip: bool, d: ConvDesign, E: Eng
             t_out = max(t_out, 0.0)
         loss = t_in * w_in - t_out * w_out
     slip_w = (w_e - w_in) * t_in if slip else 0.0
-    return ConvState(t_out / d.r, True, w_e, t_e, w_in, t_in, loss, slip_w)
+    return ConvState(
+        f_del=t_out / d.r, engaged=True, w_e=w_e, t_e=t_e, w_in=w_in, t_in=t_in, loss_gb_w=loss, loss_clutch_w=slip_w
+    )
 
 
 @njit(cache=True, inline="always")

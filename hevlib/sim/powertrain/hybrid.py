@@ -77,6 +77,30 @@ class SplitLimits(NamedTuple):
     j_dt: float  # carrier inertia over the step, J / dt (0: the carrier's inertia left out), N m s/rad
 
 
+class OnPoint(NamedTuple):
+    """A running engine's operating point in the gear set (:func:`_engine_on`), before the battery's limits."""
+
+    w_e: float  # engine (carrier) speed, rad/s
+    t_e: float  # engine torque, N m
+    w_g: float  # generator (sun) speed, rad/s
+    t_g: float  # generator torque, N m
+    t_m: float  # motor torque, N m
+    t_r_eng: float  # ring torque from the engine through the gear set, N m
+    p_m_e: float  # motor electrical power, W (+ drawn)
+    p_g_e: float  # generator electrical power, W (+ drawn)
+    t_c: float  # carrier torque into the gear set, N m
+
+
+class Circulation(NamedTuple):
+    """A motoring generator's draw cut back to the battery's limit (:func:`_less_circulation`)."""
+
+    t_e: float  # engine torque, N m
+    t_g: float  # generator torque, N m
+    t_r_eng: float  # ring torque from the engine, N m
+    p_g_e: float  # generator electrical power, W (+ drawn)
+    p_acc: float  # accessory power served, W
+
+
 class SplitDriveline(NamedTuple):
     """One design's power-split driveline: its scalars and the engine, motor and generator maps (built once per
     design; what the solvers around :func:`dispatch` read). :func:`dispatch` itself takes the four apart: handed
@@ -102,7 +126,14 @@ class SplitCommand(NamedTuple):
 @njit(cache=True, inline="always")
 def at_power(cmd: SplitCommand, p_e_target_w: float) -> SplitCommand:
     """``cmd`` with the target engine power ``p_e_target_w``."""
-    return SplitCommand(cmd.f_req_n, cmd.engine_on, p_e_target_w, cmd.p_dis_w, cmd.p_chg_w, cmd.regen_share)
+    return SplitCommand(
+        f_req_n=cmd.f_req_n,
+        engine_on=cmd.engine_on,
+        p_e_target_w=p_e_target_w,
+        p_dis_w=cmd.p_dis_w,
+        p_chg_w=cmd.p_chg_w,
+        regen_share=cmd.regen_share,
+    )
 
 
 @njit(cache=True, inline="always")
@@ -145,7 +176,7 @@ def limits(v: float, d: SplitDesign, E: EngineArrays, M: MachineArrays, G: Machi
         k = d.n_r / d.n_s
         w_g = sun_speed(hi, w_r, d.n_r, d.n_s)
         p_max = hi * min(max_torque(hi, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
-    return SplitLimits(w_r, torque_limit(w_r, d.s_mot, M), lo, hi, p_max, 0.0, 0.0)
+    return SplitLimits(w_r=w_r, t_m_cap=torque_limit(w_r, d.s_mot, M), lo=lo, hi=hi, p_e_max=p_max, w_ref=0.0, j_dt=0.0)
 
 
 @njit(cache=True)
@@ -188,7 +219,7 @@ def _engine_on(p_e: float, lim: SplitLimits, t_r_drive: float, d: SplitDesign, E
     t_m = min(max(t_r_drive - t_r_eng, -t_m_cap), t_m_cap)
     p_m_e = electric_power(t_m, w_r, d.s_mot, M)
     p_g_e = electric_power(t_g, w_g, d.s_gen, G)
-    return w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c
+    return OnPoint(w_e=w_e, t_e=t_e, w_g=w_g, t_g=t_g, t_m=t_m, t_r_eng=t_r_eng, p_m_e=p_m_e, p_g_e=p_g_e, t_c=t_c)
 
 
 @njit(cache=True)
@@ -222,7 +253,7 @@ def _engine_power_for_battery(
         if not (min(p_a, p_b) < p < max(p_a, p_b)):
             p = 0.5 * (p_a + p_b)
         st = _engine_on(p, lim, t_r_drive, d, E, M, G)
-        g = sign * (st[6] + st[7] + d.p_acc_w - target)
+        g = sign * (st.p_m_e + st.p_g_e + d.p_acc_w - target)
         if g > 0.0:
             p_a, g_a = p, g
             if side == -1:
@@ -257,7 +288,13 @@ def _less_circulation(
     p_g_e = electric_power(-t_c / (1.0 + k), w_g, d.s_gen, G)
     p_acc = max(min(d.p_acc_w, p_dis - p_m_e - p_g_e), 0.0)
     t_r_eng = d.eta_pg * t_c * k / (1.0 + k) if t_c >= 0.0 else t_c * k / (1.0 + k) / d.eta_pg
-    return lo, -t_c / (1.0 + k), t_r_eng, p_g_e, p_acc
+    return Circulation(t_e=lo, t_g=-t_c / (1.0 + k), t_r_eng=t_r_eng, p_g_e=p_g_e, p_acc=p_acc)
+
+
+@njit(cache=True, inline="always")
+def _point(pt: OnPoint):
+    """The fields of an :class:`OnPoint` read by name, in the order :func:`_dispatch` keeps them as locals."""
+    return pt.w_e, pt.t_e, pt.w_g, pt.t_g, pt.t_m, pt.t_r_eng, pt.p_m_e, pt.p_g_e, pt.t_c
 
 
 @njit(cache=True)
@@ -274,7 +311,9 @@ def dispatch(
     if st.running and lim.j_dt > 0.0 and st.p_batt > cmd.p_dis_w * (1.0 + 1e-9) + 1e-6:
         w_hold = min(max(lim.w_ref, lim.lo), lim.hi)
         held = within_rate(lim, w_hold, 0.0, lim.j_dt, d, E, G)
-        lim = SplitLimits(lim.w_r, lim.t_m_cap, w_hold, w_hold, held.p_e_max, lim.w_ref, lim.j_dt)
+        lim = SplitLimits(
+            w_r=lim.w_r, t_m_cap=lim.t_m_cap, lo=w_hold, hi=w_hold, p_e_max=held.p_e_max, w_ref=lim.w_ref, j_dt=lim.j_dt
+        )
         st_h = _dispatch(lim, at_power(cmd, min(cmd.p_e_target_w, held.p_e_max)), d, E, M, G)
         if st_h.p_batt < st.p_batt:
             st = st_h
@@ -284,7 +323,8 @@ def dispatch(
 @njit(cache=True)
 def _dispatch(lim: SplitLimits, cmd: SplitCommand, d, E, M, G) -> SplitState:
     """:func:`dispatch` for a carrier free to move within the window of ``lim`` (arguments as there)."""
-    f_req, engine_on, p_e_target, p_dis, p_chg, regen_frac = cmd
+    f_req, engine_on, p_e_target = cmd.f_req_n, cmd.engine_on, cmd.p_e_target_w
+    p_dis, p_chg, regen_frac = cmd.p_dis_w, cmd.p_chg_w, cmd.regen_share
     w_r, t_m_cap, lo, hi = lim.w_r, lim.t_m_cap, lim.lo, lim.hi
     k = d.n_r / d.n_s
     t_r_req = ring_torque_for_wheel_force(f_req, d)
@@ -294,18 +334,18 @@ def _dispatch(lim: SplitLimits, cmd: SplitCommand, d, E, M, G) -> SplitState:
 
     if running:
         p_e = p_e_target
-        w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_on(p_e, lim, t_r_drive, d, E, M, G)
+        w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _point(_engine_on(p_e, lim, t_r_drive, d, E, M, G))
         p_batt = p_m_e + p_g_e + p_acc
         if p_batt > p_dis:
             # more engine power first (battery power falls as engine power rises) ...
             p_hi = lim.p_e_max
             if p_hi > p_e:
                 st = _engine_on(p_hi, lim, t_r_drive, d, E, M, G)
-                h_hi = st[6] + st[7] + p_acc
+                h_hi = st.p_m_e + st.p_g_e + p_acc
                 if h_hi <= p_dis:
                     bracket = (p_e, p_batt - p_dis, p_hi, h_hi - p_dis)
                     st = _engine_power_for_battery(bracket, st, 1.0, p_dis, lim, t_r_drive, d, E, M, G)
-                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = st
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _point(st)
                 p_batt = p_m_e + p_g_e + p_acc
             if p_batt > p_dis and t_m > 0.0:
                 # ... then less motor torque
@@ -315,7 +355,8 @@ def _dispatch(lim: SplitLimits, cmd: SplitCommand, d, E, M, G) -> SplitState:
             if p_batt > p_dis and p_g_e > 0.0:
                 # ... and when the generator motors (power circulation: engine slower than the ring
                 # drags the sun backwards) less engine torque, down to none, then accessories shed
-                t_e, t_g, t_r_eng, p_g_e, p_acc = _less_circulation(t_e, t_e - t_c, w_g, p_m_e, p_dis, d, G)
+                cut = _less_circulation(t_e, t_e - t_c, w_g, p_m_e, p_dis, d, G)
+                t_e, t_g, t_r_eng, p_g_e, p_acc = cut.t_e, cut.t_g, cut.t_r_eng, cut.p_g_e, cut.p_acc
                 t_c = -t_g * (1.0 + k)
             if p_m_e + p_g_e + p_acc > p_dis:
                 # nothing left to cut but the accessories
@@ -324,18 +365,20 @@ def _dispatch(lim: SplitLimits, cmd: SplitCommand, d, E, M, G) -> SplitState:
         elif p_batt < -p_chg:
             # less engine power first (battery power rises as engine power falls) ...
             st0 = _engine_on(0.0, lim, t_r_drive, d, E, M, G)
-            h0 = st0[6] + st0[7] + p_acc
+            h0 = st0.p_m_e + st0.p_g_e + p_acc
             if h0 < -p_chg and lim.j_dt > 0.0:
                 # a slowing carrier's inertia the battery cannot take runs down in the engine's friction instead
-                lim = SplitLimits(lim.w_r, lim.t_m_cap, lo, hi, lim.p_e_max, lim.w_ref, 0.0)
+                lim = SplitLimits(
+                    w_r=lim.w_r, t_m_cap=lim.t_m_cap, lo=lo, hi=hi, p_e_max=lim.p_e_max, w_ref=lim.w_ref, j_dt=0.0
+                )
                 st0 = _engine_on(0.0, lim, t_r_drive, d, E, M, G)
-                h0 = st0[6] + st0[7] + p_acc
+                h0 = st0.p_m_e + st0.p_g_e + p_acc
             if h0 < -p_chg:
-                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = st0
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _point(st0)
             else:
                 bracket = (p_e, -(p_batt + p_chg), 0.0, -(h0 + p_chg))
-                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _engine_power_for_battery(
-                    bracket, st0, -1.0, -p_chg, lim, t_r_drive, d, E, M, G
+                w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _point(
+                    _engine_power_for_battery(bracket, st0, -1.0, -p_chg, lim, t_r_drive, d, E, M, G)
                 )
             p_batt = p_m_e + p_g_e + p_acc
             if p_batt < -p_chg and t_m < 0.0:
@@ -377,20 +420,20 @@ def _dispatch(lim: SplitLimits, cmd: SplitCommand, d, E, M, G) -> SplitState:
         t_r = t_r_eng + t_m
         t_c = t_e
     return SplitState(
-        wheel_force_for_ring_torque(t_r, d),
-        running,
-        w_e,
-        t_e,
-        w_r,
-        t_m,
-        w_g,
-        t_g,
-        p_m_e,
-        p_g_e,
-        p_acc,
-        p_batt,
-        t_r,
-        t_c,
+        f_del=wheel_force_for_ring_torque(t_r, d),
+        running=running,
+        w_e=w_e,
+        t_e=t_e,
+        w_r=w_r,
+        t_m=t_m,
+        w_g=w_g,
+        t_g=t_g,
+        p_m_e=p_m_e,
+        p_g_e=p_g_e,
+        p_acc=p_acc,
+        p_batt=p_batt,
+        t_r=t_r,
+        t_c=t_c,
     )
 
 
@@ -415,7 +458,7 @@ def carrier_dynamics(
     k = d.n_r / d.n_s
     j = d.s_eng * j_start + d.s_gen * j_gen * (1.0 + k) * (1.0 + k)
     t_spin = (1.0 + k) * torque_limit(0.0, d.s_gen, G)
-    return CarrierDynamics(j, t_spin, d.s_eng * t_crank, w_fire, dt * t_spin / j)
+    return CarrierDynamics(j=j, t_spin=t_spin, t_crank=d.s_eng * t_crank, w_fire=w_fire, dw_max=dt * t_spin / j)
 
 
 @njit(cache=True, inline="always")
@@ -443,8 +486,10 @@ def within_rate(
     faster than the generator could follow: the generator's speed limit comes first)."""
     lo, hi = max(lim.lo, w_from - dw), min(lim.hi, w_from + dw)
     if lo > hi or (lo == lim.lo and hi == lim.hi):
-        return SplitLimits(lim.w_r, lim.t_m_cap, lim.lo, lim.hi, lim.p_e_max, w_from, j_dt)
+        return SplitLimits(
+            w_r=lim.w_r, t_m_cap=lim.t_m_cap, lo=lim.lo, hi=lim.hi, p_e_max=lim.p_e_max, w_ref=w_from, j_dt=j_dt
+        )
     k = d.n_r / d.n_s
     w_g = sun_speed(hi, lim.w_r, d.n_r, d.n_s)
     p_max = hi * min(max_torque(hi, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
-    return SplitLimits(lim.w_r, lim.t_m_cap, lo, hi, p_max, w_from, j_dt)
+    return SplitLimits(w_r=lim.w_r, t_m_cap=lim.t_m_cap, lo=lo, hi=hi, p_e_max=p_max, w_ref=w_from, j_dt=j_dt)

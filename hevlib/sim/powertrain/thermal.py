@@ -362,7 +362,8 @@ def thermal_step(
     (HC, CO, NOx) rates, g/s. Accumulates the heat terms ``O_Q_*`` of
     :mod:`hevlib.sim.powertrain.layout` in ``o``.
     """
-    key_on, fuel_g_s, q_waste_w, w_e, eo_hc, eo_co, eo_nox, v_mps, dt = s
+    key_on, fuel_g_s, q_waste_w, w_e, v_mps, dt = s.key_on, s.fuel_g_s, s.q_waste_w, s.w_e_rad_s, s.v_mps, s.dt_s
+    eo_hc, eo_co, eo_nox = s.hc_g_s, s.co_g_s, s.nox_g_s
     amb = t.amb_c
     if fuel_g_s == 0.0 and q_waste_w == 0.0 and eo_hc + eo_co + eo_nox == 0.0 and at_ambient(temp, amb):
         return 0.0, 0.0, 0.0  # no heat in and every node at ambient: nothing flows, nothing changes
