@@ -106,10 +106,10 @@ def test_a_step_with_no_heat_at_ambient_changes_nothing_and_one_degree_off_does(
     )
     cfg = sim.library.thermal["hybrid"]
     k = T.design_constants(40.0, cfg, 1.0, 60.0)
-    temp = np.full(T.N_NODES, cfg.amb_c)
+    temp = np.full(T.N_NODES, cfg.ambient_c)
     o = np.zeros(N_O)
     tp = T.thermal_step(temp, k, cfg, _ambient_step, o)
-    assert tp == (0.0, 0.0, 0.0) and (temp == cfg.amb_c).all() and not o.any()
+    assert tp == (0.0, 0.0, 0.0) and (temp == cfg.ambient_c).all() and not o.any()
     temp[T.N_MON] += 1.0  # one node off ambient: the full step runs and the monolith cools
     T.thermal_step(temp, k, cfg, _ambient_step, o)
-    assert cfg.amb_c < temp[T.N_MON] < cfg.amb_c + 1.0 and o.any()
+    assert cfg.ambient_c < temp[T.N_MON] < cfg.ambient_c + 1.0 and o.any()

@@ -319,7 +319,7 @@ def test_the_road_force_of_a_coast_down_is_a_plus_b_v_plus_c_v2_on_the_flat(lib)
         axle_drag_nm=0.0,
         h_over_l=0.16,
         f_front=0.6,
-        mu=0.9,
+        adhesion_coefficient=0.9,
         rho=body.air_density_kg_m3,
         g=g,
         k_lin=rl.k_lin,

@@ -118,19 +118,19 @@ ONE_PLACE = {
     ("sim", "soc_init"): ["rows"],  # the drive's (and the performance tests') start, per design
     ("sim", "soc_min"): ["sc.soc_min"],  # the pack's window, which the controller's charge deficit reads too
     ("sim", "soc_max"): ["sc.soc_max"],
-    ("sim", "adhesion_coefficient"): ["c.mu"],
-    ("sim", "planetary_efficiency"): ["sc.eta_pg"],
-    ("sim", "final_drive_efficiency"): ["sc.eta_fd"],
-    ("sim", "pack_current_max_a"): ["sc.i_max_a"],
-    ("sim", "cycle_met_tolerance_kmh"): ["c.off_trace_mps"],
-    ("sim", "ambient_c"): ["X.amb_c"],
-    ("pms", "engine_on_threshold"): ["pc.on_threshold"],
-    ("pms", "engine_min_on_s"): ["pc.min_on_s"],
-    ("pms", "engine_min_off_s"): ["pc.min_off_s"],
-    ("pms", "engine_min_power_kw"): ["pc.p_min_w"],
-    ("pms", "charge_power_fraction"): ["pc.charge_frac"],
+    ("sim", "adhesion_coefficient"): ["c.adhesion_coefficient"],
+    ("sim", "planetary_efficiency"): ["sc.planetary_efficiency"],
+    ("sim", "final_drive_efficiency"): ["sc.final_drive_efficiency"],
+    ("sim", "pack_current_max_a"): ["sc.pack_current_max_a"],
+    ("sim", "cycle_met_tolerance_kmh"): ["c.cycle_met_tolerance_mps"],
+    ("sim", "ambient_c"): ["X.ambient_c"],
+    ("pms", "engine_on_threshold"): ["pc.engine_on_threshold"],
+    ("pms", "engine_min_on_s"): ["pc.engine_min_on_s"],
+    ("pms", "engine_min_off_s"): ["pc.engine_min_off_s"],
+    ("pms", "engine_min_power_kw"): ["pc.engine_min_power_w"],
+    ("pms", "charge_power_fraction"): ["pc.charge_power_fraction"],
     ("pms", "soc_target"): ["pc.soc_target"],
-    ("pms", "full_power_above_kw"): ["pc.p_full_w"],
+    ("pms", "full_power_above_kw"): ["pc.full_power_above_w"],
     ("pms", "soc_low"): ["th.soc_low"],
     ("pms", "soc_high"): ["th.soc_high"],  # the rule base's threshold, which also stops the engine's charging
     ("pms", "speed_high_kmh"): ["th.speed_high_kmh"],
@@ -150,6 +150,19 @@ def test_each_param_lands_in_one_place(lib, params, group, key):
     a = Vehicle.from_design(KernelLibrary.build(lib, params), design).kernel
     b = Vehicle.from_design(KernelLibrary.build(lib, other), design).kernel
     assert _changed(a, b) == sorted(ONE_PLACE[group, key])
+    for where in ONE_PLACE[group, key]:
+        if where != "rows":  # the design rows' start SOC column (R_SOC0)
+            # the rule base reads its thresholds in the params' own units (the speed it sees is in km/h)
+            name = key if where.startswith("th.") else _si(key)
+            assert where.split(".")[-1] == name, f"{group}.{key} is called {where} in the kernel"
+
+
+def _si(key: str) -> str:
+    """A params key's name in the kernels: the same, its unit in SI where the params give kW or km/h."""
+    for unit, si in (("_kw", "_w"), ("_kmh", "_mps")):
+        if key.endswith(unit):
+            return key.removesuffix(unit) + si
+    return key
 
 
 def test_scale_factors_come_from_power_scale_alone():

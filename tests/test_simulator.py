@@ -349,7 +349,7 @@ def test_adhesion_and_force_speed_solution():
         axle_drag_nm=6.4,
         h_over_l=0.16,
         f_front=0.55,
-        mu=0.9,
+        adhesion_coefficient=0.9,
         rho=1.2,
         g=9.81,
         k_lin=0.0,
@@ -358,7 +358,7 @@ def test_adhesion_and_force_speed_solution():
     a = f / ch.m_eff
     # at that force the front load (with the load transfer of that acceleration) is exactly mu times it
     n_front = ch.m * ch.g * ch.f_front - ch.m * a * ch.h_over_l
-    assert f == pytest.approx(ch.mu * n_front, rel=1e-12)
+    assert f == pytest.approx(ch.adhesion_coefficient * n_front, rel=1e-12)
     v = mean_speed_for_force(10.0, 2000.0, 0.0, 1.0, 1.0, ch)
     assert 2000.0 - road_total(v, 0.0, 1.0, ch) == pytest.approx(2 * ch.m_eff * (v - 10.0), rel=1e-9)
     # too little force on a 20 % grade from standstill: the car stays put, it does not roll back

@@ -103,14 +103,14 @@ class PmsConfig(NamedTuple):
     """Crisp settings of the supervisory controller (the fuzzy thresholds are :class:`Thresholds`; the SOC window
     is the pack's, ``SplitConfig.soc_min``, handed to :func:`supervise`)."""
 
-    on_threshold: float
-    min_on_s: float
-    min_off_s: float
-    p_min_w: float  # engine power floor while running
-    charge_frac: float  # charging power as a share of rated engine power at full charge degree
+    engine_on_threshold: float
+    engine_min_on_s: float
+    engine_min_off_s: float
+    engine_min_power_w: float  # engine power floor while running
+    charge_power_fraction: float  # charging power as a share of rated engine power at full charge degree
     soc_target: float
     t_warmup_c: float  # coolant below this: the engine stays on until warm (-inf: rule off)
-    p_full_w: float  # road power at or above which a running engine is asked for full power (inf: rule off)
+    full_power_above_w: float  # road power at or above which a running engine is asked for full power (inf: rule off)
 
 
 class Observed(NamedTuple):
@@ -154,17 +154,17 @@ def supervise(
     overspeed a stopped generator is spun by the gear set with its fuel cut
     (:func:`hevlib.sim.powertrain.hybrid.dispatch`), not fired.
     Target power: ring demand plus accessories plus a charging share (fuzzy charge degree or SOC
-    below target), floored at ``p_min_w``, capped by what the engine can give; boost, or road power at or
-    above ``p_full_w`` (ADVISOR's Prius), = full power.
+    below target), floored at ``engine_min_power_w``, capped by what the engine can give; boost, or road power at or
+    above ``full_power_above_w`` (ADVISOR's Prius), = full power.
     """
     engine_on, t_in_state_s, soc, grade, v_kmh = obs.engine_on, obs.t_in_state_s, obs.soc, obs.grade, obs.v_kmh
     t_r_req, p_dis, t_coolant_c = obs.t_r_req_nm, obs.p_dis_w, obs.t_coolant_c
     w_r, t_m_cap = lim.w_r, lim.t_m_cap
     can_run = lim.lo <= lim.hi
     k = d.n_r / d.n_s
-    t_r_eng_cap = d.eta_pg * k / (1.0 + k) * max_torque(lim.hi, d.s_eng, E) if can_run else 0.0
+    t_r_eng_cap = d.planetary_efficiency * k / (1.0 + k) * max_torque(lim.hi, d.s_eng, E) if can_run else 0.0
     torque_frac = t_r_req / max(t_m_cap + t_r_eng_cap, 1e-9)
-    want, charge_deg, boost_deg = decide(soc, grade, v_kmh, torque_frac, th, pc.on_threshold, engine_on)
+    want, charge_deg, boost_deg = decide(soc, grade, v_kmh, torque_frac, th, pc.engine_on_threshold, engine_on)
     ev_ok = True
     if t_r_req > 0.0:
         ev_ok = t_r_req <= t_m_cap and electric_power(t_r_req, w_r, d.s_mot, M) + d.p_acc_w <= p_dis
@@ -178,25 +178,25 @@ def supervise(
         # ADVISOR's Prius (PTC_PRIUS_JPN cs_clt_tmp; its 'need engine on?' block): the engine may go off only
         # with the coolant at the warm-up temperature or above, so a cold engine stays on, braking included
         want = True
-    if engine_on and not want and t_in_state_s < pc.min_on_s and t_r_req >= 0.0:
+    if engine_on and not want and t_in_state_s < pc.engine_min_on_s and t_r_req >= 0.0:
         want = True
-    if not engine_on and want and t_in_state_s < pc.min_off_s and ev_ok:
+    if not engine_on and want and t_in_state_s < pc.engine_min_off_s and ev_ok:
         want = False
     if not can_run:
         want = False
     if not want:
         return False, 0.0
     p_max = lim.p_e_max
-    if boost_deg > 0.5 or t_r_req * w_r >= pc.p_full_w:
+    if boost_deg > 0.5 or t_r_req * w_r >= pc.full_power_above_w:
         # boost (rule 5), or ADVISOR's 'max engine if pwr req>limit' (lib_controls.mdl, <vc> prius): from 25 kW
         # of road power the engine runs at the top of its window at full torque
         return True, p_max
     p_rated = d.s_eng * E.line_p[-1]
     soc_deficit = min(max((pc.soc_target - soc) / max(pc.soc_target - soc_min, 1e-9), 0.0), 1.0)
-    p_charge = pc.charge_frac * p_rated * max(charge_deg, soc_deficit) if soc < th.soc_high else 0.0
-    p = max(t_r_req, 0.0) * w_r / d.eta_pg + d.p_acc_w + p_charge
+    p_charge = pc.charge_power_fraction * p_rated * max(charge_deg, soc_deficit) if soc < th.soc_high else 0.0
+    p = max(t_r_req, 0.0) * w_r / d.planetary_efficiency + d.p_acc_w + p_charge
     if t_r_req > t_m_cap:
         # the motor alone lacks torque: the engine's ring share must cover the rest
-        t_e_need = (t_r_req - t_m_cap) * (1.0 + k) / (k * d.eta_pg)
+        t_e_need = (t_r_req - t_m_cap) * (1.0 + k) / (k * d.planetary_efficiency)
         p = max(p, line_power_for_torque(t_e_need, d.s_eng, E))
-    return True, min(max(p, pc.p_min_w), p_max)
+    return True, min(max(p, pc.engine_min_power_w), p_max)

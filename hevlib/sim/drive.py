@@ -51,7 +51,7 @@ class DriveConfig(NamedTuple):
     """Scalars every design of a batch shares, for either car: chassis, road, brakes, fuel, the step."""
 
     dt: float
-    mu: float
+    adhesion_coefficient: float
     rho: float
     g: float
     cda: float
@@ -66,7 +66,7 @@ class DriveConfig(NamedTuple):
     lhv_j_per_g: float
     j_wheel: float  # all wheels, tyres and axles, kg m^2
     j_eng: float  # base-map rotor inertia (scaled with each design's power), kg m^2
-    off_trace_mps: float  # speed error above which a step counts as off the trace (speed_dev)
+    cycle_met_tolerance_mps: float  # speed error above which a step counts as off the trace (speed_dev)
     k_lin: float  # linear road-load term (a coast-down's B), N per m/s (hevlib.sim.vehicles.road_load); 0 else
 
 
@@ -76,9 +76,9 @@ class SplitConfig(NamedTuple):
 
     soc_min: float
     soc_max: float
-    eta_pg: float
-    eta_fd: float
-    i_max_a: float
+    planetary_efficiency: float
+    final_drive_efficiency: float
+    pack_current_max_a: float
     p_acc_w: float  # electrical accessory load, W
     w_e_min: float
     w_e_max: float
@@ -187,7 +187,7 @@ def chassis(m: float, m_eff: float, c: DriveConfig) -> Chassis:
         axle_drag_nm=c.axle0_nm + c.axle_per_kg_nm * m,
         h_over_l=c.h_over_l,
         f_front=c.f_front,
-        mu=c.mu,
+        adhesion_coefficient=c.adhesion_coefficient,
         rho=c.rho,
         g=c.g,
         k_lin=c.k_lin,
@@ -240,8 +240,8 @@ def split_design(row: np.ndarray, c: DriveConfig, sc: SplitConfig) -> split.Spli
         w_e_max=sc.w_e_max,
         w_m_max=sc.w_m_max,
         w_g_max=sc.w_g_max,
-        eta_pg=sc.eta_pg,
-        eta_fd=sc.eta_fd,
+        planetary_efficiency=sc.planetary_efficiency,
+        final_drive_efficiency=sc.final_drive_efficiency,
         p_acc_w=sc.p_acc_w,
     )
 
@@ -274,7 +274,7 @@ def pack_power_limits(
     lim = PackLimits(
         v_min_v=in_series(sc.v_min_mod, n_bat),
         v_max_v=in_series(sc.v_max_mod, n_bat),
-        i_max_a=sc.i_max_a,
+        i_max_a=sc.pack_current_max_a,
         soc_min=soc_min,
         soc_max=sc.soc_max,
         capacity_as=sc.cap_as,
@@ -381,7 +381,7 @@ def _book_wheel(o, f_del, v_disp, f_brake, v0, v_avg, limited, road: StepRoad, c
 
 
 @njit(cache=True, inline="always")
-def _book_following(o, v_ref_now, v_ref_next, v0, v_next, v_avg, dt, off_trace_mps):
+def _book_following(o, v_ref_now, v_ref_next, v0, v_next, v_avg, dt, cycle_met_tolerance_mps):
     """Cycle-following statistics of one step: acceleration shortfall, speed error and time off the
     trace, distances, and the spell the car has stood still while the cycle asked it to move."""
     a_req = (v_ref_next - v_ref_now) / dt  # what the cycle asks for this step
@@ -393,7 +393,7 @@ def _book_following(o, v_ref_now, v_ref_next, v0, v_next, v_avg, dt, off_trace_m
     err = _clean(abs(v_ref_next - v_next))
     o[L.O_SPEED_ERR_SUM] += err
     o[L.O_MAX_SPEED_ERR] = max(o[L.O_MAX_SPEED_ERR], err)
-    if err > off_trace_mps:
+    if err > cycle_met_tolerance_mps:
         o[L.O_OFF_TRACE_S] += dt
     if v_next < STILL_MPS and v_ref_next > STILL_MPS:
         o[L.O_STUCK_NOW_S] += dt
@@ -567,7 +567,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
             # prescribed key-off (e.g. the FTP soak): nothing runs, no accessory load
             eng_on = OFF
             w_c, was_running = 0.0, False
-            _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.off_trace_mps)
+            _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.cycle_met_tolerance_mps)
             _exhaust(o, nodes, _key_off(dt), t, tr, record)
             t_state += dt
             if record:
@@ -697,7 +697,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
         o[L.O_E_ACC] += st.p_acc * dt
         o[L.O_E_ACC_UNMET] += (d.p_acc_w - st.p_acc) * dt
         _book_wheel(o, st.f_del, v_disp, f_brake, v0, v_avg, limited, road, ch)
-        a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt, c.off_trace_mps)
+        a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt, c.cycle_met_tolerance_mps)
         soc_lo, soc_hi = min(soc_lo, soc), max(soc_hi, soc)
         # ---- limits
         bad = 0.0
@@ -794,7 +794,7 @@ def _conventional_one(veh: ConventionalRec, i: int, cyc: KernelCycle, t_init, o,
         v_tgt = min(v_ref_next, v_lim)
         stationary = v0 <= 1e-9 and v_tgt <= 1e-9
         if stationary and not key_on[t]:
-            _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.off_trace_mps)
+            _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.cycle_met_tolerance_mps)
             _exhaust(o, nodes, _key_off(dt), t, tr, record)
             if record:
                 tr[t + 1, L.T_GRADE] = gr
@@ -861,7 +861,7 @@ def _conventional_one(veh: ConventionalRec, i: int, cyc: KernelCycle, t_init, o,
         o[L.O_E_LOSS_GB] += st.loss_gb_w * dt
         o[L.O_E_LOSS_CLUTCH] += st.loss_clutch_w * dt
         _book_wheel(o, st.f_del, v_disp, f_brake, v0, v_avg, limited, road, ch)
-        a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt, c.off_trace_mps)
+        a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt, c.cycle_met_tolerance_mps)
         if _over(st.w_e, d.w_e_max) or _over(st.t_e, max_torque(st.w_e, d.s_eng, E)):
             o[L.O_LIMIT_VIOLATIONS] += 1.0
         if record:

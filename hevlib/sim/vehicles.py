@@ -97,11 +97,11 @@ def engine_arrays(engine: EngineMap) -> EngineArrays:
 
 
 def thermal_config(
-    engine: EngineMap, th: EngineThermal, cat: Catalyst, glider_kg: float, amb_c: float, cold_correction: bool
+    engine: EngineMap, th: EngineThermal, cat: Catalyst, glider_kg: float, ambient_c: float, cold_correction: bool
 ) -> ThermalConfig:
     """The engine's and the catalyst's thermal data as the kernels read them (ADVISOR's rules)."""
     return ThermalConfig(
-        amb_c=float(amb_c),
+        ambient_c=float(ambient_c),
         p_base_kw=engine.peak_power_kw,
         m_base_kg=th.base_engine_mass_kg,
         m_acc_kg=th.accessories_mass_kg,
@@ -229,7 +229,7 @@ def drive_config(params: Params, body: Body, wheel: Wheel, engine: EngineMap, te
     rl = road_load(body, wheel, test_mass_kg)
     return DriveConfig(
         dt=1.0,
-        mu=sim.adhesion_coefficient,
+        adhesion_coefficient=sim.adhesion_coefficient,
         rho=body.air_density_kg_m3,
         g=body.gravity_m_s2,
         cda=rl.cda,
@@ -244,7 +244,7 @@ def drive_config(params: Params, body: Body, wheel: Wheel, engine: EngineMap, te
         lhv_j_per_g=engine.lhv_j_per_g,
         j_wheel=wheel.inertia_kg_m2,
         j_eng=engine.inertia_kg_m2,
-        off_trace_mps=sim.cycle_met_tolerance_kmh / 3.6,
+        cycle_met_tolerance_mps=sim.cycle_met_tolerance_kmh / 3.6,
         k_lin=rl.k_lin,
     )
 
@@ -257,9 +257,9 @@ def split_config(lib: ComponentLibrary, params: Params) -> SplitConfig:
     return SplitConfig(
         soc_min=sim.soc_min,
         soc_max=sim.soc_max,
-        eta_pg=sim.planetary_efficiency,
-        eta_fd=sim.final_drive_efficiency,
-        i_max_a=sim.pack_current_max_a,
+        planetary_efficiency=sim.planetary_efficiency,
+        final_drive_efficiency=sim.final_drive_efficiency,
+        pack_current_max_a=sim.pack_current_max_a,
         p_acc_w=float(lib.accessory_hybrid.electrical_w),
         w_e_min=ps.engine_min_on_speed_rad_s,
         w_e_max=min(ps.engine_max_speed_rad_s, lib.engine_hybrid.max_speed_rad_s),
@@ -370,14 +370,14 @@ class KernelLibrary:
             pack=battery_arrays(lib.battery),
             thresholds=thresholds(pms),
             pms=PmsConfig(
-                on_threshold=pms.engine_on_threshold,
-                min_on_s=pms.engine_min_on_s,
-                min_off_s=pms.engine_min_off_s,
-                p_min_w=pms.engine_min_power_kw * 1e3,
-                charge_frac=pms.charge_power_fraction,
+                engine_on_threshold=pms.engine_on_threshold,
+                engine_min_on_s=pms.engine_min_on_s,
+                engine_min_off_s=pms.engine_min_off_s,
+                engine_min_power_w=pms.engine_min_power_kw * 1e3,
+                charge_power_fraction=pms.charge_power_fraction,
                 soc_target=pms.soc_target,
                 t_warmup_c=lib.power_split.coolant_warmup_temperature_c if pms.coolant_warmup else -np.inf,
-                p_full_w=pms.full_power_above_kw * 1e3 if pms.full_power_above_kw is not None else np.inf,
+                full_power_above_w=pms.full_power_above_kw * 1e3 if pms.full_power_above_kw is not None else np.inf,
             ),
             configs=configs,
             split=split_config(lib, params),

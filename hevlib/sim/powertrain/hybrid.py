@@ -42,8 +42,8 @@ class SplitDesign(NamedTuple):
     w_e_max: float
     w_m_max: float
     w_g_max: float
-    eta_pg: float  # planetary gear set (carrier -> ring path)
-    eta_fd: float  # final drive
+    planetary_efficiency: float  # planetary gear set (carrier -> ring path)
+    final_drive_efficiency: float  # final drive
     p_acc_w: float  # electrical accessory load
 
 
@@ -144,12 +144,12 @@ def ring_speed(v: float, d: SplitDesign) -> float:
 @njit(cache=True, inline="always")
 def ring_torque_for_wheel_force(f: float, d: SplitDesign) -> float:
     t_wh = f * d.r
-    return t_wh / (d.i0 * d.eta_fd) if t_wh >= 0.0 else t_wh * d.eta_fd / d.i0
+    return t_wh / (d.i0 * d.final_drive_efficiency) if t_wh >= 0.0 else t_wh * d.final_drive_efficiency / d.i0
 
 
 @njit(cache=True, inline="always")
 def wheel_force_for_ring_torque(t_r: float, d: SplitDesign) -> float:
-    return t_r * d.i0 * d.eta_fd / d.r if t_r >= 0.0 else t_r * d.i0 / (d.eta_fd * d.r)
+    return t_r * d.i0 * d.final_drive_efficiency / d.r if t_r >= 0.0 else t_r * d.i0 / (d.final_drive_efficiency * d.r)
 
 
 @njit(cache=True, inline="always")
@@ -215,7 +215,9 @@ def _engine_on(p_e: float, lim: SplitLimits, t_r_drive: float, d: SplitDesign, E
         t_e = max(t_target + t_acc, 0.0)
         t_c = t_target
     t_g = -t_c / (1.0 + k)
-    t_r_eng = d.eta_pg * t_c * k / (1.0 + k) if t_c >= 0.0 else t_c * k / (1.0 + k) / d.eta_pg
+    t_r_eng = (
+        d.planetary_efficiency * t_c * k / (1.0 + k) if t_c >= 0.0 else t_c * k / (1.0 + k) / d.planetary_efficiency
+    )
     t_m = min(max(t_r_drive - t_r_eng, -t_m_cap), t_m_cap)
     p_m_e = electric_power(t_m, w_r, d.s_mot, M)
     p_g_e = electric_power(t_g, w_g, d.s_gen, G)
@@ -287,7 +289,9 @@ def _less_circulation(
     t_c = min(max(lo - t_acc, -t_g_cap), t_g_cap)
     p_g_e = electric_power(-t_c / (1.0 + k), w_g, d.s_gen, G)
     p_acc = max(min(d.p_acc_w, p_dis - p_m_e - p_g_e), 0.0)
-    t_r_eng = d.eta_pg * t_c * k / (1.0 + k) if t_c >= 0.0 else t_c * k / (1.0 + k) / d.eta_pg
+    t_r_eng = (
+        d.planetary_efficiency * t_c * k / (1.0 + k) if t_c >= 0.0 else t_c * k / (1.0 + k) / d.planetary_efficiency
+    )
     return Circulation(t_e=lo, t_g=-t_c / (1.0 + k), t_r_eng=t_r_eng, p_g_e=p_g_e, p_acc=p_acc)
 
 
@@ -396,7 +400,7 @@ def _dispatch(lim: SplitLimits, cmd: SplitCommand, d, E, M, G) -> SplitState:
             w_e = (d.n_r * w_r - d.n_s * d.w_g_max) / (d.n_r + d.n_s)
             t_e = max(drag_torque(w_e, d.s_eng, E), -(1.0 + k) * torque_limit(d.w_g_max, d.s_gen, G))
             t_g = -t_e / (1.0 + k)
-            t_r_eng = t_e * k / (1.0 + k) / d.eta_pg
+            t_r_eng = t_e * k / (1.0 + k) / d.planetary_efficiency
         w_g = sun_speed(w_e, w_r, d.n_r, d.n_s)
         if t_g != 0.0:
             p_g_e = electric_power(t_g, w_g, d.s_gen, G)

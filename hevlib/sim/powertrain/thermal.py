@@ -74,10 +74,10 @@ HOT_START_C = {
 }
 
 
-def start_temperatures(state: str, amb_c: float, t_stat_c: float) -> np.ndarray:
+def start_temperatures(state: str, ambient_c: float, t_stat_c: float) -> np.ndarray:
     """Node temperatures of a ``cold`` start (all at ambient) or a ``hot`` (preconditioned) one, degC."""
     if state == "cold":
-        return np.full(N_NODES, float(amb_c))
+        return np.full(N_NODES, float(ambient_c))
     if state == "hot":
         return np.array([t_stat_c if n == "block" else HOT_START_C[n] for n in NODE_NAMES])
     raise ValueError(f"thermal start state: {state!r} is not cold or hot")
@@ -86,7 +86,7 @@ def start_temperatures(state: str, amb_c: float, t_stat_c: float) -> np.ndarray:
 class ThermalConfig(NamedTuple):
     """Thermal data of one engine + the catalyst, as the kernels see it (base engine, unscaled)."""
 
-    amb_c: float
+    ambient_c: float
     p_base_kw: float  # peak power of the base engine map; a design's scale is p_eng / p_base
     # engine (fc temp)
     m_base_kg: float  # base engine (block + head) of the base map; cylinder 20 %, block 80 %
@@ -346,10 +346,10 @@ def stored_heat(temp: np.ndarray, k: np.ndarray) -> float:
 
 
 @njit(cache=True, inline="always")
-def at_ambient(temp: np.ndarray, amb_c: float) -> bool:
+def at_ambient(temp: np.ndarray, ambient_c: float) -> bool:
     """Every node exactly at the ambient temperature (a cold engine before its first fuel)."""
     for i in range(N_NODES):
-        if temp[i] != amb_c:
+        if temp[i] != ambient_c:
             return False
     return True
 
@@ -364,7 +364,7 @@ def thermal_step(
     """
     key_on, fuel_g_s, q_waste_w, w_e, v_mps, dt = s.key_on, s.fuel_g_s, s.q_waste_w, s.w_e_rad_s, s.v_mps, s.dt_s
     eo_hc, eo_co, eo_nox = s.hc_g_s, s.co_g_s, s.nox_g_s
-    amb = t.amb_c
+    amb = t.ambient_c
     if fuel_g_s == 0.0 and q_waste_w == 0.0 and eo_hc + eo_co + eo_nox == 0.0 and at_ambient(temp, amb):
         return 0.0, 0.0, 0.0  # no heat in and every node at ambient: nothing flows, nothing changes
     flow = fuel_g_s * (1.0 + t.afr)

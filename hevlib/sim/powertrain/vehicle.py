@@ -36,7 +36,7 @@ class Chassis(NamedTuple):
     axle_drag_nm: float  # driven-axle drag torque at this mass, N m
     h_over_l: float  # CG height / wheelbase
     f_front: float  # static front-axle weight fraction
-    mu: float  # tyre-road adhesion coefficient
+    adhesion_coefficient: float  # tyre-road adhesion (sim.adhesion_coefficient)
     rho: float  # air density, kg/m^3
     g: float  # gravity, m/s^2
     k_lin: float  # linear road-load term (a coast-down's B), N per m/s; booked with rolling resistance
@@ -75,7 +75,7 @@ def adhesion_limit(sin_t: float, cos_t: float, f_road: float, c: Chassis) -> flo
     """
     k = c.h_over_l * c.m / c.m_eff
     n_static = c.m * c.g * (c.f_front * cos_t - c.h_over_l * sin_t)
-    f = c.mu * (n_static + k * f_road) / (1.0 + c.mu * k)
+    f = c.adhesion_coefficient * (n_static + k * f_road) / (1.0 + c.adhesion_coefficient * k)
     return max(f, 0.0)
 
 
