@@ -17,6 +17,11 @@ from hevlib.sim.powertrain.borrow import borrowed
 from hevlib.sim.powertrain.layout import N_O
 
 
+def _step(**given) -> T.ThermalStep:
+    """A thermal step by keyword: the key on, one second, no exhaust flow or emissions unless ``given``."""
+    return T.ThermalStep(**({f: 0.0 for f in T.ThermalStep._fields} | {"key_on": True, "dt_s": 1.0} | given))
+
+
 @intrinsic
 def _counted(typingctx, arr):
     """Whether ``arr`` carries a meminfo (is reference-counted)."""
@@ -93,17 +98,7 @@ def test_thermal_short_cuts_are_the_formulas_value_exactly():
 
 
 def test_a_step_with_no_heat_at_ambient_changes_nothing_and_one_degree_off_does(sim):
-    _ambient_step = T.ThermalStep(
-        key_on=True,
-        fuel_g_s=0.0,
-        q_waste_w=0.0,
-        w_e_rad_s=0.0,
-        hc_g_s=0.0,
-        co_g_s=0.0,
-        nox_g_s=0.0,
-        v_mps=12.0,
-        dt_s=1.0,
-    )
+    _ambient_step = _step(v_mps=12.0)
     cfg = sim.library.thermal["hybrid"]
     k = T.design_constants(40.0, cfg, 1.0, 60.0)
     temp = np.full(T.N_NODES, cfg.ambient_c)

@@ -16,6 +16,11 @@ from hevlib.sim.simulator import Simulator, energy_balance
 PRIUS = [43.0, 31.0, 15.0, 3.93, 25, 78, 30]
 
 
+def _step(**given) -> T.ThermalStep:
+    """A thermal step by keyword: the key on, one second, no exhaust flow or emissions unless ``given``."""
+    return T.ThermalStep(**({f: 0.0 for f in T.ThermalStep._fields} | {"key_on": True, "dt_s": 1.0} | given))
+
+
 @pytest.fixture(scope="module")
 def cfg(sim) -> T.ThermalConfig:
     return sim.library.thermal["conventional"]
@@ -62,17 +67,7 @@ def test_catalyst_heats_with_exhaust_and_cools_without_it_as_a_lumped_capacity(c
             temp,
             k,
             c,
-            T.ThermalStep(
-                key_on=True,
-                fuel_g_s=fuel,
-                q_waste_w=q_waste,
-                w_e_rad_s=w,
-                hc_g_s=0.0,
-                co_g_s=0.0,
-                nox_g_s=0.0,
-                v_mps=0.0,
-                dt_s=1.0,
-            ),
+            _step(fuel_g_s=fuel, q_waste_w=q_waste, w_e_rad_s=w),
             o,
         )
     expected = t_gas - (t_gas - 20.0) * np.exp(-200.0 / tau)
@@ -89,17 +84,7 @@ def test_catalyst_heats_with_exhaust_and_cools_without_it_as_a_lumped_capacity(c
             temp,
             k,
             c,
-            T.ThermalStep(
-                key_on=False,
-                fuel_g_s=0.0,
-                q_waste_w=0.0,
-                w_e_rad_s=0.0,
-                hc_g_s=0.0,
-                co_g_s=0.0,
-                nox_g_s=0.0,
-                v_mps=0.0,
-                dt_s=1.0,
-            ),
+            _step(key_on=False),
             o,
         )
     assert temp[T.N_MON] == pytest.approx(20.0 + (t0 - 20.0) * np.exp(-g * 300.0 / k[T.N_MON]), rel=2e-3)
@@ -116,17 +101,7 @@ def test_conversion_follows_the_table_and_breakthrough_caps_it(cfg, t_mon):
         temp,
         k,
         cfg._replace(cold_correction=False),
-        T.ThermalStep(
-            key_on=True,
-            fuel_g_s=1.0,
-            q_waste_w=3e4,
-            w_e_rad_s=300.0,
-            hc_g_s=eo[0],
-            co_g_s=eo[1],
-            nox_g_s=eo[2],
-            v_mps=10.0,
-            dt_s=1.0,
-        ),
+        _step(fuel_g_s=1.0, q_waste_w=3e4, w_e_rad_s=300.0, hc_g_s=eo[0], co_g_s=eo[1], nox_g_s=eo[2], v_mps=10.0),
         np.zeros(N_O),
     )
     assert tp == pytest.approx(tuple(e * (1 - f) for e, f in zip(eo, eff, strict=True)), rel=1e-12)
