@@ -84,9 +84,9 @@ def test_optimise_never_lets_the_held_out_set_reach_a_fit(root, tmp_path, monkey
     fits, calls = [], []
     real = surrogates.fit_surrogate
 
-    def spy(kind, X, Y, p, space):
+    def spy(kind, X, Y, params, space):
         fits.append((np.array(X, dtype=float), np.array(Y, dtype=float)))
-        return _Spy(real(kind, X, Y, p, space), calls)
+        return _Spy(real(kind, X, Y, params, space), calls)
 
     monkeypatch.setattr(surrogates, "fit_surrogate", spy)
     result = runner.invoke(app, ["optimise", "nsga3"])
