@@ -38,7 +38,7 @@ from hevlib.sizing import study_library
 ROOT = Path(__file__).resolve().parents[1]
 FIGURES = ("fc", "fc_charge_balanced", "hc", "co", "nox")
 #: Energy terms of the charge-balanced run (``OUT_NAMES``, J or counts) that ``--audit`` follows across steps.
-AUDIT = ("e_fuel_j", "e_engine_inertia_j", "e_engine_start_j", "e_loss_batt_j", "e_loss_gen_j", "n_limited")
+AUDIT = ("e_fuel_j", "e_engine_start_j", "e_loss_batt_j", "e_loss_gen_j", "n_limited")
 
 
 def resampled(cycle: Cycle, dt_s: float) -> Cycle:

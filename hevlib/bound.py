@@ -15,15 +15,17 @@ of a stopped carrier), the pack's open-circuit voltage, resistances and power li
 :func:`hevlib.sim.drive.pack_state` and :func:`~hevlib.sim.drive.pack_power_limits`, its charge moves as in the
 drive loop (coulombic efficiency on charge), fuel comes from the engine's hot map
 (:func:`hevlib.sim.powertrain.engine.rates`), and an engine start costs the battery what the simulator charges
-(the generator spinning the carrier from its speed to firing speed against the crank torque, its losses on top:
-:func:`hevlib.sim.powertrain.hybrid.start_cost`).
+(the generator spinning the carrier from its speed to firing speed against the crank torque at its full torque,
+its losses on top: :func:`hevlib.sim.powertrain.hybrid.spin_up`; the simulator's spin-up may take longer where the
+pack cannot spare that torque's draw, at more crank work, and it spreads the start over its duration).
 
 **What it leaves out**, each a relaxation (the bound can only be lower for it): the engine's thermal state (the
 hot map throughout: a cold start's surplus fuel is not in the bound; :mod:`hevlib.controller_gap` compares it with
 the rule base's fuel on the hot map, the simulator's own cold surplus taken out, and reports that surplus), the
 tailpipe (no
-emission constraint: the bound is fuel only), the carrier's inertia and the rate at which the generator can move
-it (the engine reaches any speed of its window within a step), the rule base's minimum on and off times.
+emission constraint: the bound is fuel only), a start's duration (its energy is booked within its step; the
+simulator spreads it over the spin-up), the rule base's minimum on and off times. A running carrier moves freely
+within its window in both (its inertia left out).
 
 **End condition.** Charge sustaining: the final SOC at least the initial one (a steep linear penalty below it on
 the last step's grid); the forward pass's small surplus is booked like the simulator's (net battery energy, the
@@ -65,7 +67,7 @@ from hevlib.sim.powertrain import hybrid as split
 from hevlib.sim.powertrain import layout as L
 from hevlib.sim.powertrain.battery import current_for_power
 from hevlib.sim.powertrain.engine import max_torque, rates
-from hevlib.sim.powertrain.machines import electric_power, torque_limit
+from hevlib.sim.powertrain.machines import torque_limit
 from hevlib.sim.powertrain.planetary import sun_speed
 from hevlib.sim.powertrain.vehicle import road_force
 
@@ -147,7 +149,7 @@ def step_controls(veh: HybridRec, i: int, cyc: KernelCycle, n_speed: int, n_torq
     dt = c.dt
     k = d.n_r / d.n_s
     v_lim = split_speed_limit(d)
-    cdyn = split.carrier_dynamics(d, G, sc.j_start, sc.j_gen, sc.t_crank, sc.w_fire, dt)
+    cdyn = split.carrier_dynamics(d, G, sc.j_start, sc.j_gen, sc.t_crank, sc.w_fire)
     n = v_ref.shape[0] - 1
     key_off = np.zeros(n, dtype=np.bool_)
     off_ok = np.zeros(n, dtype=np.bool_)
@@ -203,13 +205,10 @@ def step_controls(veh: HybridRec, i: int, cyc: KernelCycle, n_speed: int, n_torq
         # ---- a start on this step, from the carrier's speed at the end of the last (as the drive loop books it)
         if sc.engine_dynamics:
             w0 = w_off[t - 1] if t > 0 else 0.0
-            e_start, t_su = split.start_cost(w0, cdyn)
-            if e_start == INF:
-                p_start[t] = INF
-            elif e_start > 0.0:
-                t_gs = cdyn.t_spin / (1.0 + k)
-                w_gs = sun_speed(0.5 * (w0 + cdyn.w_fire), lim.w_r, d.n_r, d.n_s)
-                p_start[t] = (e_start + (electric_power(t_gs, w_gs, d.s_gen, G) - t_gs * w_gs) * t_su) / dt
+            # at the generator's full torque, whole (the least a start costs: a spin-up the pack cannot give full
+            # torque costs more crank work, so the bound stays below the simulator)
+            su = split.spin_up(w0, lim.w_r, INF, cdyn, d, G, INF)
+            p_start[t] = INF if su.t_left_s == INF else su.e_elec_j / dt
         # ---- the engine on: a grid of speeds across its window, torques up to what engine and generator take
         if lim.lo > lim.hi:
             continue
@@ -218,9 +217,7 @@ def step_controls(veh: HybridRec, i: int, cyc: KernelCycle, n_speed: int, n_torq
             w_e = lim.lo if n_speed == 1 else lim.lo + (lim.hi - lim.lo) * a / (n_speed - 1)
             w_g = sun_speed(w_e, lim.w_r, d.n_r, d.n_s)
             t_cap = min(max_torque(w_e, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
-            pinned = split.SplitLimits(
-                w_r=lim.w_r, t_m_cap=lim.t_m_cap, lo=w_e, hi=w_e, p_e_max=w_e * t_cap, w_ref=0.0, j_dt=0.0
-            )
+            pinned = split.SplitLimits(w_r=lim.w_r, t_m_cap=lim.t_m_cap, lo=w_e, hi=w_e, p_e_max=w_e * t_cap)
             for b in range(n_torque):
                 t_e = t_cap * b / (n_torque - 1) if n_torque > 1 else t_cap
                 cmd = split.SplitCommand(

@@ -329,7 +329,7 @@ class PmsParams(_Strict):
     soc_target: Frac = 0.6
     # ADVISOR's Prius control beyond the rule base (PTC_PRIUS_JPN); false = the study's plain rule base
     coolant_warmup: bool = True  # below the file's warm-up coolant temperature the engine stays on until warm
-    engine_dynamics: bool = True  # starts spin the carrier up (start-up inertia, crank torque), speed rate-bound
+    engine_dynamics: bool = True  # starts spin the carrier up over their duration (start-up inertia, crank torque)
     full_power_above_kw: Annotated[float, Field(gt=0, le=500)] | None = 25.0  # ADVISOR: road power -> full engine
 
     @model_validator(mode="after")

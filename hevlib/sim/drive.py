@@ -26,11 +26,13 @@ from hevlib.sim.powertrain import thermal as th_
 from hevlib.sim.powertrain.battery import PackLimits, current_for_power, power_limits
 from hevlib.sim.powertrain.borrow import borrowed
 from hevlib.sim.powertrain.engine import EngineArrays, max_torque, rates
-from hevlib.sim.powertrain.machines import MachineArrays, electric_power, torque_limit
-from hevlib.sim.powertrain.planetary import sun_speed
+from hevlib.sim.powertrain.machines import MachineArrays, torque_limit
 from hevlib.sim.powertrain.vehicle import Chassis, adhesion_limit, mean_speed_for_force, road_force
 
 LIMIT_TOL = 1e-9  # relative tolerance of the limit checks
+#: SOC above the controller's window counted as a violation: a spun engine's generator reacting its drag can give a
+#: few watts more than a full pack takes where the motor cannot spend them (measured: 3.5 W, 3e-7 of SOC)
+SOC_TOL = 1e-6
 #: Flags handed to the kernels that are compiled on their own (not inlined) as typed booleans: numba types a
 #: literal ``True``/``False`` argument as a constant and compiles a second copy of the callee, and of all
 #: that it inlines, for it (measured: 10 s of a 60 s cold compile). A numpy bool global is not a literal.
@@ -90,7 +92,7 @@ class SplitConfig(NamedTuple):
     v_max_mod: float
     j_mot: float  # base-map rotor inertias (scaled with each design's power), kg m^2
     j_gen: float
-    engine_dynamics: bool  # carrier speed as a state (starts, crank work, rate bound, inertia)
+    engine_dynamics: bool  # starts spin the carrier up over their duration (start-up inertia, crank work)
     j_start: float  # the engine's start-up effective inertia (base engine), kg m^2
     t_crank: float  # its crank torque (base engine), N m
     w_fire: float  # firing speed: fuel flows from here up, rad/s
@@ -133,13 +135,13 @@ class StepRoad(NamedTuple):
     dt_s: float
 
 
-class CarrierReach(NamedTuple):
-    """How far the power-split car's carrier can move in one step (engine dynamics): its speed at the start,
-    the most change, and its inertia over the step (:func:`hevlib.sim.powertrain.hybrid.within_rate`)."""
+class StepPart(NamedTuple):
+    """The stretch of drive step ``t`` an engine and exhaust update covers: the whole step, or one of the two parts
+    of a step in which a start's spin-up ends (:func:`_hybrid_one`)."""
 
-    w_from_rad_s: float
-    dw_rad_s: float
-    j_dt: float  # carrier inertia / dt (0: left out), N m s/rad
+    t: int  # the step
+    h_s: float  # the part's length, s
+    t_end_s: float  # the cycle time at its end, s
 
 
 class EngineOp(NamedTuple):
@@ -200,9 +202,9 @@ def split_equivalent_mass_kg(row: np.ndarray, c: DriveConfig, sc: SplitConfig) -
 
     Wheels ``J_wh / r^2``; motor on the ring ``J_m (i0 / r)^2``; generator on the sun, which at a held
     engine speed (and with the engine stopped) turns at ``-k`` times the ring (Willis), ``J_g (k i0 / r)^2``.
-    The engine's speed is set by the controller, not by the vehicle's, so its inertia does not reflect: the
-    carrier's own speed changes (engine and generator through Willis) are the engine dynamics'
-    (``e_engine_start_j``, ``e_engine_inertia_j``; the cross term of the generator's two motions is left out).
+    The engine's speed is set by the controller, not by the vehicle's, so its inertia does not reflect: a start's
+    spin-up of the carrier (engine and generator through Willis) is the engine dynamics' (``e_engine_start_j``;
+    a running carrier's own speed changes are left out, as is the cross term of the generator's two motions).
     Machine inertias scale with the machine's power, like their masses.
     """
     k = row[R_N_R] / row[R_N_S]
@@ -309,11 +311,12 @@ def _book_engine(o, fuel, hc, co, nox, p_shaft, lhv_j_per_g, dt):
 
 
 @njit(cache=True, inline="always")
-def _exhaust(o, nodes: th_.ThermalNodes, s: th_.ThermalStep, t, tr, record):
-    """Thermal nodes and tailpipe emissions of step ``t`` (and their trace channels)."""
+def _exhaust(o, nodes: th_.ThermalNodes, s: th_.ThermalStep, t_end_s, t, tr, record):
+    """Thermal nodes and tailpipe emissions of step ``t``, or of its part ending at ``t_end_s`` (and their trace
+    channels)."""
     temp, k, X = nodes.temp_c, nodes.k, nodes.cfg
     tp_hc, tp_co, tp_nox = th_.thermal_step(temp, k, X, s, o)
-    th_.check_light_off(temp, X, (t + 1) * s.dt_s, o)
+    th_.check_light_off(temp, X, t_end_s, o)
     if record:
         tr[t + 1, L.T_T_COOLANT] = temp[th_.N_BLOCK]
         tr[t + 1, L.T_T_CAT] = temp[th_.N_MON]
@@ -326,10 +329,10 @@ def _exhaust(o, nodes: th_.ThermalNodes, s: th_.ThermalStep, t, tr, record):
 
 
 @njit(cache=True, inline="always")
-def _engine_step(o, nodes: th_.ThermalNodes, op: EngineOp, s_eng, E, c, v_avg, t, tr, record):
-    """One key-on step of the engine at ``op``: fuel and engine-out rates from the hot maps times the cold-engine
-    factors of the block temperature (none while it does not run), its energy terms, then the thermal nodes and
-    the tailpipe (:func:`_exhaust`). Returns the fuel rate, g/s."""
+def _engine_step(o, nodes: th_.ThermalNodes, op: EngineOp, s_eng, E, c, v_avg, part: StepPart, tr, record):
+    """One key-on step of the engine at ``op``, or the part of it ``part`` says: fuel and engine-out rates from the
+    hot maps times the cold-engine factors of the block temperature (none while it does not run), its energy
+    terms, then the thermal nodes and the tailpipe (:func:`_exhaust`). Returns the fuel rate, g/s."""
     running, w_e, t_e = op.running, op.w_e_rad_s, op.t_e_nm
     temp, X = nodes.temp_c, nodes.cfg
     fuel = hot = hc = co = nox = 0.0
@@ -338,10 +341,11 @@ def _engine_step(o, nodes: th_.ThermalNodes, op: EngineOp, s_eng, E, c, v_avg, t
         c_f, c_hc, c_co, c_nox = th_.cold_factors(temp[th_.N_BLOCK], X)
         fuel, hc, co, nox = hot * c_f, hc * c_hc, co * c_co, nox * c_nox
     p_shaft = t_e * w_e
-    _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, c.dt)
+    h = part.h_s
+    _book_engine(o, fuel, hc, co, nox, p_shaft, c.lhv_j_per_g, h)
     if running:
-        o[L.O_E_SHAFT_FUELLED] += p_shaft * c.dt
-        o[L.O_E_FUEL_COLD] += (fuel - hot) * c.lhv_j_per_g * c.dt
+        o[L.O_E_SHAFT_FUELLED] += p_shaft * h
+        o[L.O_E_FUEL_COLD] += (fuel - hot) * c.lhv_j_per_g * h
     # ADVISOR's 'fc temp' takes the waste heat and the exhaust flow from the hot map's fuel: a cold engine's
     # surplus fuel leaves unburnt (the extra HC and CO of the cold factors) and heats nothing
     q_waste = hot * c.lhv_j_per_g - p_shaft
@@ -354,9 +358,9 @@ def _engine_step(o, nodes: th_.ThermalNodes, op: EngineOp, s_eng, E, c, v_avg, t
         co_g_s=co,
         nox_g_s=nox,
         v_mps=v_avg,
-        dt_s=c.dt,
+        dt_s=h,
     )
-    _exhaust(o, nodes, step, t, tr, record)
+    _exhaust(o, nodes, step, part.t_end_s, part.t, tr, record)
     return fuel
 
 
@@ -450,7 +454,6 @@ def limited_step_split(
     road: StepRoad,
     st,
     env,
-    reach: CarrierReach,
     ch,
     dl: split.SplitDriveline,
 ):
@@ -463,11 +466,9 @@ def limited_step_split(
     previous force-limited step (``v < 0``: none). Consecutive limited steps have nearly the same envelope and
     nearby solutions, so the first guess is the Newton step from that point (else the fixed-point step from
     ``v_req``), the second a Newton step with the slope, then secant steps, until the speed bought is within
-    ``SPEED_TOL``. The engine's speeds stay within the carrier's ``reach``
-    (:func:`hevlib.sim.powertrain.hybrid.within_rate`).
+    ``SPEED_TOL``.
     Returns (state, v_disp, v_avg, the envelope point and slope for the next solve)."""
     sn, cs, dt = road.sin_g, road.cos_g, road.dt_s
-    w_from, dw, j_dt = reach.w_from_rad_s, reach.dw_rad_s, reach.j_dt
     d, E, M, G = dl.d, dl.E, dl.M, dl.G
     v_e, f_e, slope = env
     u = mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch)
@@ -478,7 +479,7 @@ def limited_step_split(
         v_b = min(max(v_req + h_a, 0.0), v_cap)
     f_b = f_a
     for it in range(12):
-        lim = split.within_rate(split.limits(v_b, d, E, M, G), w_from, dw, j_dt, d, E, G)
+        lim = split.limits(v_b, d, E, M, G)
         st = split.dispatch(lim, split.at_power(cmd, lim.p_e_max), d, E, M, G)
         f_b = st.f_del
         u = mean_speed_for_force(v0, f_b, sn, cs, dt, ch)
@@ -491,12 +492,12 @@ def limited_step_split(
             v_next = _secant_step(v_a, h_a, v_b, h_b, v_cap)
         v_a, h_a, f_a, v_b = v_b, h_b, f_b, v_next
     if abs(h_b) > SPEED_TOL:
-        # the secant steps did not settle (a kink of the envelope, e.g. where the carrier's reach or the
+        # the secant steps did not settle (a kink of the envelope, e.g. where the
         # generator's limit takes over): bisect, h(0) >= 0 >= h(v_cap)
         v_lo, v_hi = 0.0, v_cap
         for _ in range(64):
             v_b = 0.5 * (v_lo + v_hi)
-            lim = split.within_rate(split.limits(v_b, d, E, M, G), w_from, dw, j_dt, d, E, G)
+            lim = split.limits(v_b, d, E, M, G)
             st = split.dispatch(lim, split.at_power(cmd, lim.p_e_max), d, E, M, G)
             f_b = st.f_del
             u = mean_speed_for_force(v0, f_b, sn, cs, dt, ch)
@@ -530,6 +531,85 @@ def limited_step_conv(v0, v_req, v_cap, cmd: ConvCommand, road: StepRoad, st, ch
     return st, v_b, mean_speed_for_force(v0, st.f_del, sn, cs, dt, ch)
 
 
+@njit(cache=True, inline="always")
+def _off(f_req: float, p_dis: float, p_chg: float, regen: float) -> split.SplitCommand:
+    """The command of a spin-up part: the wheels on the motor alone within (``p_dis``, ``p_chg``)."""
+    return split.SplitCommand(
+        f_req_n=f_req, engine_on=OFF, p_e_target_w=0.0, p_dis_w=p_dis, p_chg_w=p_chg, regen_share=regen
+    )
+
+
+@njit(cache=True, inline="always")
+def _spin_window(p_dis: float, p_left: float, p_acc: float) -> float:
+    """The discharge window of the wheels and accessories while a spin-up draws on the pack: the controller's
+    window ``p_dis`` within what the pack itself has left beside the spin-up, ``p_left``; the accessories keep
+    theirs from the pack's own reserve (the spin-up's torque leaves them room: ``split.spin_up``)."""
+    return max(min(p_dis, p_left), min(p_acc, p_left), 0.0)
+
+
+@njit(cache=True, inline="always")
+def _idle(lim: split.SplitLimits) -> split.SplitState:
+    """Nothing turns but the ring: the state of a part that does not happen."""
+    return split.SplitState(
+        f_del=0.0,
+        running=OFF,
+        w_e=0.0,
+        t_e=0.0,
+        w_r=lim.w_r,
+        t_m=0.0,
+        w_g=0.0,
+        t_g=0.0,
+        p_m_e=0.0,
+        p_g_e=0.0,
+        p_acc=0.0,
+        p_batt=0.0,
+        t_r=0.0,
+        t_c=0.0,
+    )
+
+
+@njit(cache=True, inline="always")
+def _charge_drawn(p_batt: float, ocv: float, r_d: float, r_c: float, h: float, eta_c: float) -> float:
+    """Charge the pack gives at terminal power ``p_batt`` over ``h`` seconds (negative: taken, at the coulombic
+    efficiency ``eta_c``), A s."""
+    if h <= 0.0:
+        return 0.0
+    i_a = current_for_power(p_batt, ocv, r_d, r_c)
+    return i_a * h if i_a >= 0.0 else eta_c * i_a * h
+
+
+@njit(cache=True, inline="always")
+def _split_violations(st: split.SplitState, d: split.SplitDesign, E, M, G) -> float:
+    """How many component limits the power-split state ``st`` exceeds (engine, generator, motor)."""
+    bad = 0.0
+    if st.running:
+        if _over(st.w_e, d.w_e_max) or st.w_e < d.w_e_min * (1.0 - LIMIT_TOL):
+            bad += 1.0
+        if _over(st.t_e, max_torque(st.w_e, d.s_eng, E)):
+            bad += 1.0
+    if _over(abs(st.w_g), d.w_g_max) or _over(abs(st.t_g), torque_limit(st.w_g, d.s_gen, G)):
+        bad += 1.0
+    if _over(st.w_r, d.w_m_max) or _over(abs(st.t_m), torque_limit(st.w_r, d.s_mot, M)):
+        bad += 1.0
+    return bad
+
+
+@njit(cache=True, inline="always")
+def _book_split_part(o, st: split.SplitState, h: float, v_disp: float, d: split.SplitDesign):
+    """The machines', gear set's, final drive's and accessories' energy terms of a power-split part of ``h``
+    seconds at ``st``."""
+    k = d.n_r / d.n_s
+    o[L.O_E_LOSS_MOT] += (st.p_m_e - st.t_m * st.w_r) * h
+    o[L.O_E_LOSS_GEN] += (st.p_g_e - st.t_g * st.w_g) * h
+    o[L.O_E_GEN_MECH_IN] += max(-st.t_g * st.w_g, 0.0) * h
+    o[L.O_E_GEN_ELEC_OUT] += max(-st.p_g_e, 0.0) * h
+    # gear-set loss: the engine's ideal ring share minus what reaches (or leaves) the ring
+    o[L.O_E_LOSS_PG] += (st.t_c * k / (1.0 + k) - (st.t_r - st.t_m)) * st.w_r * h
+    o[L.O_E_LOSS_FD] += (st.t_r * st.w_r - st.f_del * v_disp) * h
+    o[L.O_E_ACC] += st.p_acc * h
+    o[L.O_E_ACC_UNMET] += (d.p_acc_w - st.p_acc) * h
+
+
 @njit(cache=True)
 def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record: bool, scratch):
     # everything below reads the caller's arrays through views that are not reference-counted (borrow.py)
@@ -542,11 +622,10 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
     n_bat = row[R_N_BAT]
     cap = sc.cap_as
     dt = c.dt
-    k = d.n_r / d.n_s
     v_lim = split_speed_limit(d)
     soc, v = row[R_SOC0], 0.0
     eng_on, t_state = OFF, 1e9
-    cdyn = split.carrier_dynamics(d, G, sc.j_start, sc.j_gen, sc.t_crank, sc.w_fire, dt)
+    cdyn = split.carrier_dynamics(d, G, sc.j_start, sc.j_gen, sc.t_crank, sc.w_fire)
     w_c, was_running = 0.0, False  # carrier speed at the end of the last step; the engine fired then
     env = NO_ENVELOPE  # the last force-limited step's point on the full-power force envelope (limited_step_split)
     soc_lo, soc_hi = soc, soc
@@ -568,7 +647,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
             eng_on = OFF
             w_c, was_running = 0.0, False
             _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.cycle_met_tolerance_mps)
-            _exhaust(o, nodes, _key_off(dt), t, tr, record)
+            _exhaust(o, nodes, _key_off(dt), (t + 1) * dt, t, tr, record)
             t_state += dt
             if record:
                 tr[t + 1, L.T_SOC] = soc
@@ -582,13 +661,6 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
         f_cmd = min(f_req, f_adh) if f_req >= 0.0 else max(f_req, -f_adh)
         regen = driveline_brake_share(v_req, c)
         lim = split.limits(v_req, d, E, M, G)
-        dynamics = sc.engine_dynamics
-        w_from, dw = w_c, np.inf  # the carrier's reach this step (engine dynamics)
-        j_dt = cdyn.j / dt if dynamics else 0.0
-        if dynamics and was_running:
-            # the generator's torque at the sun speed the step starts from, on the carrier's inertia
-            dw = dt * (1.0 + k) * torque_limit(sun_speed(w_from, lim.w_r, d.n_r, d.n_s), d.s_gen, G) / cdyn.j
-            lim = split.within_rate(lim, w_from, dw, j_dt, d, E, G)
         t_r_req = split.ring_torque_for_wheel_force(f_cmd, d)
         seen = Observed(
             engine_on=eng_on,
@@ -601,116 +673,124 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
             t_coolant_c=temp[th_.N_BLOCK],
         )
         want, p_target = supervise(seen, lim, th, pc, sc.soc_min, d, E, M)
-        e_start = t_su = p_start = 0.0
-        lim_off = lim  # the window without a start (a start narrows it to the carrier's reach from firing speed)
-        if dynamics and want and not was_running:
-            # a start: the generator spins the carrier from its speed to firing speed against the crank torque,
-            # at full torque, from the battery (its losses at the mean sun speed of the spin-up on top)
-            e_start, t_su = split.start_cost(w_c, cdyn)
-            if 0.0 < e_start < np.inf:
-                t_gs = cdyn.t_spin / (1.0 + k)
-                w_gs = sun_speed(0.5 * (w_c + cdyn.w_fire), lim.w_r, d.n_r, d.n_s)
-                p_start = (e_start + (electric_power(t_gs, w_gs, d.s_gen, G) - t_gs * w_gs) * t_su) / dt
-            if e_start == np.inf or p_start > pack_power_limits(ocv, r_d, r_c, soc, 0.0, n_bat, sc, dt)[0]:
-                # the generator cannot overcome the crank torque, or the pack (its voltage and current, not the
-                # controller's SOC window: the engine pays the crank energy back within the step) cannot crank
-                want, p_target, e_start, t_su, p_start = False, 0.0, 0.0, 0.0, 0.0
-            else:
-                # the spin-up is booked within its step (0.1-0.4 s for most designs; a slower one is compressed
-                # into the step), and from firing speed the carrier moves as the generator's torque allows
-                w_from, dw = max(w_c, cdyn.w_fire), cdyn.dw_max
-                lim = split.within_rate(lim, w_from, dw, j_dt, d, E, G)
-        t_state_kept = t_state
+        # ---- a start: the generator spins the carrier up to firing speed (engine dynamics), from what the pack
+        # itself can spare (its voltage and current, not the controller's SOC window), the start first
+        su = split.spin_up(w_c, lim.w_r, 0.0, cdyn, d, G, 0.0)  # none
+        p_own = 0.0
+        if sc.engine_dynamics and want and not was_running:
+            p_own = pack_power_limits(ocv, r_d, r_c, soc, 0.0, n_bat, sc, dt)[0]
+            su = split.spin_up(w_c, lim.w_r, p_own - d.p_acc_w, cdyn, d, G, dt)
+            lo, hi = split.engine_window(split.ring_speed(min(v0, v_req), d), d)
+            if lo > hi or su.t_left_s == np.inf:
+                # the engine could not run at the speed the step starts from (a generator that would overspeed), or
+                # no torque the pack can spare overcomes its crank torque
+                want, p_target = False, 0.0
+                su = split.spin_up(w_c, lim.w_r, 0.0, cdyn, d, G, 0.0)
+        spin = want and su.tau_s > 0.0
         if want != eng_on:
             eng_on = want
             t_state = 0.0
-        for attempt in range(2):
-            # the start's battery power is held back from what the dispatch may use (below zero: the engine
-            # charges it back within the step, so the controller's SOC window holds)
-            p_dis_d, p_chg_d = p_dis - p_start, p_chg + p_start
+        # ---- a spin-up that ends within the step splits it: the spin-up's part (engine unfuelled, the wheels on the
+        # pack's window less the spin-up's draw), then the engine runs for the rest with the whole window and makes
+        # up what the first part fell short of; else (a spin-up through the step, or a rest that cannot make up the
+        # force) one part, the spin-up's energy booked over the step
+        tau = 0.0  # the spin-up part of a split step, s
+        st_a, p_dis_a = _idle(lim), 0.0
+        if spin and su.tau_s < dt:
+            p_dis_a = _spin_window(p_dis, p_own - su.e_elec_j / su.tau_s, d.p_acc_w)
+            st_a = split.dispatch(lim, _off(f_cmd, p_dis_a, p_chg, regen), d, E, M, G)
+            # a traction shortfall is made up; braking is not (the friction brakes take what the driveline does not)
+            f_b = (f_cmd * dt - st_a.f_del * su.tau_s) / (dt - su.tau_s) if f_cmd > 0.0 else f_cmd
+            cmd_b = split.SplitCommand(
+                f_req_n=f_b, engine_on=ON, p_e_target_w=p_target, p_dis_w=p_dis, p_chg_w=p_chg, regen_share=regen
+            )
+            st = split.dispatch(lim, cmd_b, d, E, M, G)
+            if not stationary and _falls_short(st.f_del, f_b) and p_target < lim.p_e_max:
+                st = split.dispatch(lim, split.at_power(cmd_b, lim.p_e_max), d, E, M, G)
+            if stationary or not _falls_short(st.f_del, f_b):
+                tau = su.tau_s
+        through = spin and su.tau_s >= dt  # the spin-up runs on past the step: the engine does not run yet
+        e_start = su.e_mech_j if spin else 0.0
+        p_start = su.e_elec_j / dt if spin else 0.0  # the start's electrical power over the step
+        limited = False
+        v_disp, v_avg, f_brake = v_req, v_req, 0.0
+        if tau > 0.0:
+            f_mean = (st_a.f_del * tau + st.f_del * (dt - tau)) / dt
+            f_brake = 0.0 if stationary else f_req - f_mean
+            v_avg = 0.0 if stationary else v_req
+        else:
+            # a spin-up through the step, or a start merged into its step: the wheels get the controller's window
+            # less what the spin-up draws from the pack's own (the engine unfuelled through the step, or running)
             cmd = split.SplitCommand(
                 f_req_n=f_cmd,
-                engine_on=eng_on,
+                engine_on=eng_on and not through,
                 p_e_target_w=p_target,
-                p_dis_w=p_dis_d,
-                p_chg_w=p_chg_d,
+                p_dis_w=_spin_window(p_dis, p_own - p_start, d.p_acc_w) if spin else p_dis,
+                p_chg_w=p_chg,
                 regen_share=regen,
             )
             st = split.dispatch(lim, cmd, d, E, M, G)
-            v_disp = v_req
-            f_brake = 0.0
             limited = not stationary and _falls_short(st.f_del, f_req)
             if stationary:
                 v_avg = 0.0
             elif limited:
                 # the driver floors it: engine at full power, then the speed this force buys (fixed point)
-                if eng_on and p_target < lim.p_e_max:
+                if cmd.engine_on and p_target < lim.p_e_max:
                     st = split.dispatch(lim, split.at_power(cmd, lim.p_e_max), d, E, M, G)
                     limited = _falls_short(st.f_del, f_req)
                 if limited:
-                    reach = CarrierReach(w_from_rad_s=w_from, dw_rad_s=dw, j_dt=j_dt)
-                    st, v_disp, v_avg, env = limited_step_split(v0, v_req, v_req, cmd, road, st, env, reach, ch, dl)
+                    st, v_disp, v_avg, env = limited_step_split(v0, v_req, v_req, cmd, road, st, env, ch, dl)
                 else:
-                    v_avg = v_req
                     f_brake = f_req - st.f_del
             else:
-                v_avg = v_req
                 f_brake = f_req - st.f_del
-            if attempt == 0 and p_start > 0.0 and st.running and st.p_batt + p_start > p_dis * (1.0 + 1e-9) + 1e-6:
-                # the engine cannot pay the crank energy back within the pack's window this step: no start yet
-                eng_on, t_state, p_target, e_start, p_start, lim = OFF, t_state_kept, 0.0, 0.0, 0.0, lim_off
-                continue
-            break
+            f_mean = st.f_del
         if limited:
             o[L.O_N_LIMITED] += 1.0
         v_next = max(2.0 * v_avg - v0, 0.0)
-        # ---- the start: from the battery through the generator, if the engine runs after all (a force-limited
-        # step may end at a speed where it cannot); its speed changes while it runs are in the dispatch
-        if not st.running:
-            e_start = p_start = 0.0
-        elif not was_running:
+        if st.running and not was_running:
             o[L.O_N_STARTS] += 1.0
-        p_batt = st.p_batt + p_start
-        # ---- battery
-        i_a = current_for_power(p_batt, ocv, r_d, r_c)
-        q = i_a * dt if i_a >= 0.0 else sc.eta_c * i_a * dt
+        # ---- battery: each part's current
+        h_b = dt - tau
+        p_a = st_a.p_batt + su.e_elec_j / tau if tau > 0.0 else 0.0
+        p_b = st.p_batt + (p_start if tau == 0.0 else 0.0)
+        q = _charge_drawn(p_a, ocv, r_d, r_c, tau, sc.eta_c) + _charge_drawn(p_b, ocv, r_d, r_c, h_b, sc.eta_c)
         soc -= q / cap
         p_chem = ocv * q / dt
+        p_batt = (p_a * tau + p_b * h_b) / dt
         # ---- engine, its heat and the exhaust; energy accounting (J)
         if st.running:
             o[L.O_ENG_ON_STEPS] += 1.0
         elif st.w_e > 0.0:
             o[L.O_ENG_SPUN_STEPS] += 1.0  # spun by the gear set with its fuel cut
+        t_now = t * dt
+        if tau > 0.0:
+            # the engine unfuelled: the spin-up's work is e_start's; what the dispatch has the carrier do besides (a
+            # carrier the gear set spins, its drag reacted by the generator) is booked as in any step
+            spun = EngineOp(running=OFF, w_e_rad_s=st_a.w_e, t_e_nm=st_a.t_e)
+            _engine_step(o, nodes, spun, d.s_eng, E, c, v_avg, StepPart(t=t, h_s=tau, t_end_s=t_now + tau), tr, False)
+            _book_split_part(o, st_a, tau, v_disp, d)
         op = EngineOp(running=st.running, w_e_rad_s=st.w_e, t_e_nm=st.t_e)
-        fuel = _engine_step(o, nodes, op, d.s_eng, E, c, v_avg, t, tr, record)
+        fuel = _engine_step(
+            o, nodes, op, d.s_eng, E, c, v_avg, StepPart(t=t, h_s=h_b, t_end_s=(t + 1) * dt), tr, record
+        )
+        fuel *= h_b / dt  # the step's mean rate
+        _book_split_part(o, st, h_b, v_disp, d)
         o[L.O_E_BATT] += p_chem * dt
         o[L.O_E_LOSS_BATT] += (p_chem - p_batt) * dt
-        o[L.O_E_LOSS_MOT] += (st.p_m_e - st.t_m * st.w_r) * dt
-        o[L.O_E_LOSS_GEN] += (st.p_g_e - st.t_g * st.w_g) * dt + (p_start * dt - e_start)
+        o[L.O_E_LOSS_GEN] += p_start * dt - e_start
         o[L.O_E_ENGINE_START] += e_start
-        o[L.O_E_ENGINE_INERTIA] += (st.t_e - st.t_c) * st.w_e * dt
-        o[L.O_E_GEN_MECH_IN] += max(-st.t_g * st.w_g, 0.0) * dt
-        o[L.O_E_GEN_ELEC_OUT] += max(-st.p_g_e, 0.0) * dt
-        # gear-set loss: the engine's ideal ring share minus what reaches (or leaves) the ring
-        o[L.O_E_LOSS_PG] += (st.t_c * k / (1.0 + k) - (st.t_r - st.t_m)) * st.w_r * dt
-        o[L.O_E_LOSS_FD] += (st.t_r * st.w_r - st.f_del * v_disp) * dt
-        o[L.O_E_ACC] += st.p_acc * dt
-        o[L.O_E_ACC_UNMET] += (d.p_acc_w - st.p_acc) * dt
-        _book_wheel(o, st.f_del, v_disp, f_brake, v0, v_avg, limited, road, ch)
+        _book_wheel(o, f_mean, v_disp, f_brake, v0, v_avg, limited, road, ch)
         a_req = _book_following(o, v_ref[t], v_ref_next, v0, v_next, v_avg, dt, c.cycle_met_tolerance_mps)
         soc_lo, soc_hi = min(soc_lo, soc), max(soc_hi, soc)
         # ---- limits
-        bad = 0.0
-        if st.running:
-            if _over(st.w_e, d.w_e_max) or st.w_e < d.w_e_min * (1.0 - LIMIT_TOL):
-                bad += 1.0
-            if _over(st.t_e, max_torque(st.w_e, d.s_eng, E)):
-                bad += 1.0
-        if _over(abs(st.w_g), d.w_g_max) or _over(abs(st.t_g), torque_limit(st.w_g, d.s_gen, G)):
-            bad += 1.0
-        if _over(st.w_r, d.w_m_max) or _over(abs(st.t_m), torque_limit(st.w_r, d.s_mot, M)):
-            bad += 1.0
-        if soc < sc.soc_min - 1e-9 or soc > sc.soc_max + 1e-9:
+        bad = _split_violations(st, d, E, M, G)
+        if tau > 0.0:
+            bad += _split_violations(st_a, d, E, M, G)
+        # the controller's SOC window: the drive draws no more than the window allows at the step's start (a
+        # spin-up may draw on the pack's own reserve below it, the start first), and charges no further than its top
+        p_win = _spin_window(p_dis, p_own - p_start, d.p_acc_w) if spin and tau == 0.0 else p_dis
+        if _over(st.p_batt, p_win) or (tau > 0.0 and _over(st_a.p_batt, p_dis_a)) or soc > sc.soc_max + SOC_TOL:
             bad += 1.0
         o[L.O_LIMIT_VIOLATIONS] += bad
         if record:
@@ -725,10 +805,9 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
             tr[t + 1, L.T_T_G] = st.t_g
             tr[t + 1, L.T_P_BATT] = p_batt
             tr[t + 1, L.T_P_ENGINE_START] = p_start
-            tr[t + 1, L.T_T_INERTIA] = st.t_e - st.t_c
             tr[t + 1, L.T_FUEL] = fuel
             tr[t + 1, L.T_ENG_ON] = 1.0 if st.running else 0.0
-            tr[t + 1, L.T_F_PT] = st.f_del
+            tr[t + 1, L.T_F_PT] = f_mean
             tr[t + 1, L.T_F_BRK] = f_brake
             tr[t + 1, L.T_GEAR] = 0.0
             tr[t + 1, L.T_A_REQ] = a_req
@@ -741,9 +820,20 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
             tr[t + 1, L.T_GRADE] = gr
             tr[t + 1, L.T_P_ACC_UNMET] = d.p_acc_w - st.p_acc
             tr[t + 1, L.T_M_EFF] = ch.m_eff
+            # the spin-up part of a split step (its length; 0 else), the rest of the step in the channels above
+            tr[t + 1, L.T_SPIN_PART_S] = tau
+            tr[t + 1, L.T_SPIN_W_ENG] = st_a.w_e
+            tr[t + 1, L.T_SPIN_T_ENG] = st_a.t_e
+            tr[t + 1, L.T_SPIN_T_MOT] = st_a.t_m
+            tr[t + 1, L.T_SPIN_P_MOT_E] = st_a.p_m_e
+            tr[t + 1, L.T_SPIN_W_GEN] = st_a.w_g
+            tr[t + 1, L.T_SPIN_T_GEN] = st_a.t_g
+            tr[t + 1, L.T_SPIN_P_GEN_E] = st_a.p_g_e
+            tr[t + 1, L.T_SPIN_F_PT] = st_a.f_del
         v = v_next
         t_state += dt
-        w_c, was_running = st.w_e, st.running
+        # the carrier: where a spin-up left it while the engine does not run yet, else where the step left it
+        w_c, was_running = (su.w_end_rad_s, False) if spin and not st.running else (st.w_e, st.running)
     o[L.O_SOC_END] = soc
     o[L.O_SOC_MIN_SEEN] = soc_lo
     o[L.O_SOC_MAX_SEEN] = soc_hi
@@ -795,7 +885,7 @@ def _conventional_one(veh: ConventionalRec, i: int, cyc: KernelCycle, t_init, o,
         stationary = v0 <= 1e-9 and v_tgt <= 1e-9
         if stationary and not key_on[t]:
             _book_following(o, v_ref[t], v_ref_next, 0.0, 0.0, 0.0, dt, c.cycle_met_tolerance_mps)
-            _exhaust(o, nodes, _key_off(dt), t, tr, record)
+            _exhaust(o, nodes, _key_off(dt), (t + 1) * dt, t, tr, record)
             if record:
                 tr[t + 1, L.T_GRADE] = gr
             continue
@@ -852,7 +942,7 @@ def _conventional_one(veh: ConventionalRec, i: int, cyc: KernelCycle, t_init, o,
         v_next = max(2.0 * v_avg - v0, 0.0)
         running = clutch != conv.OPEN or d.idle_allowed
         op = EngineOp(running=running, w_e_rad_s=st.w_e, t_e_nm=st.t_e)
-        fuel = _engine_step(o, nodes, op, d.s_eng, E, c, v_avg, t, tr, record)
+        fuel = _engine_step(o, nodes, op, d.s_eng, E, c, v_avg, StepPart(t=t, h_s=dt, t_end_s=(t + 1) * dt), tr, record)
         if running:
             o[L.O_E_ACC] += d.p_acc_w * dt
             o[L.O_ENG_ON_STEPS] += 1.0

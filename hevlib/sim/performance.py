@@ -22,7 +22,6 @@ from hevlib.sim.drive import (
     R_MASS,
     R_N_BAT,
     R_SOC0,
-    CarrierReach,
     ConvCommand,
     ConventionalRec,
     DriveConfig,
@@ -143,9 +142,8 @@ def _launch_step_impl(v, dt, f, env):
 
         def hybrid(v, dt, f, env):
             cmd, st = _hybrid_state(v, f)
-            reach = CarrierReach(w_from_rad_s=0.0, dw_rad_s=np.inf, j_dt=0.0)
             flat = StepRoad(sin_g=0.0, cos_g=1.0, dt_s=dt)
-            _, _, v_avg, env = limited_step_split(v, v, f.v_lim_mps, cmd, flat, st, env, reach, f.ch, f.dl)
+            _, _, v_avg, env = limited_step_split(v, v, f.v_lim_mps, cmd, flat, st, env, f.ch, f.dl)
             return v_avg, env
 
         return hybrid

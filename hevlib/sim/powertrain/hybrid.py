@@ -61,7 +61,7 @@ class SplitState(NamedTuple):
     p_acc: float  # accessory power actually served, W
     p_batt: float  # battery terminal power, W (+ discharge)
     t_r: float  # total ring torque, N m
-    t_c: float  # carrier torque into the gear set: the engine's less what accelerates the carrier's inertia, N m
+    t_c: float  # carrier torque into the gear set, N m (the engine's: a running carrier's inertia is left out)
 
 
 class SplitLimits(NamedTuple):
@@ -73,8 +73,6 @@ class SplitLimits(NamedTuple):
     lo: float  # engine speed window (lo > hi: the engine cannot run)
     hi: float
     p_e_max: float  # most engine power at this speed, W
-    w_ref: float  # carrier speed at the start of the step (engine dynamics), rad/s
-    j_dt: float  # carrier inertia over the step, J / dt (0: the carrier's inertia left out), N m s/rad
 
 
 class OnPoint(NamedTuple):
@@ -176,21 +174,17 @@ def limits(v: float, d: SplitDesign, E: EngineArrays, M: MachineArrays, G: Machi
         k = d.n_r / d.n_s
         w_g = sun_speed(hi, w_r, d.n_r, d.n_s)
         p_max = hi * min(max_torque(hi, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
-    return SplitLimits(w_r=w_r, t_m_cap=torque_limit(w_r, d.s_mot, M), lo=lo, hi=hi, p_e_max=p_max, w_ref=0.0, j_dt=0.0)
+    return SplitLimits(w_r=w_r, t_m_cap=torque_limit(w_r, d.s_mot, M), lo=lo, hi=hi, p_e_max=p_max)
 
 
 @njit(cache=True)
 def _engine_on(p_e: float, lim: SplitLimits, t_r_drive: float, d: SplitDesign, E: EngineArrays, M: MachineArrays, G):
     """Operating point with the engine delivering (up to) ``p_e`` into the gear set on its best-efficiency line,
-    within the speed window of ``lim``.
-
-    The carrier moves from ``w_ref`` to the engine's speed within the step: ``t_acc = j_dt (w_e - w_ref)`` moves
-    the carrier's inertia. As ADVISOR's engine does (its 'effect of inertia'), the engine's torque carries it on
-    top of what the gear set gets, within its full load (what the engine cannot carry, the generator does: the
-    gear set gets less); a slowing carrier's inertia stands in for engine torque, down to none, and what is left
-    runs down in the engine's friction. The gear set gets ``t_c``, which the generator reacts."""
+    within the speed window of ``lim``; the generator reacts the engine's torque (``t_c``: the running carrier
+    moves freely within the window, its inertia left out, as in :mod:`hevlib.bound`; the start's spin-up is
+    :func:`spin_up`'s)."""
     k = d.n_r / d.n_s
-    lo, hi, w_r, t_m_cap, w_ref, j_dt = lim.lo, lim.hi, lim.w_r, lim.t_m_cap, lim.w_ref, lim.j_dt
+    lo, hi, w_r, t_m_cap = lim.lo, lim.hi, lim.w_r, lim.t_m_cap
     w_e = min(max(line_speed(p_e, d.s_eng, E), lo), hi)
     w_g = sun_speed(w_e, w_r, d.n_r, d.n_s)
     t_g_cap = (1.0 + k) * torque_limit(w_g, d.s_gen, G)
@@ -204,16 +198,8 @@ def _engine_on(p_e: float, lim: SplitLimits, t_r_drive: float, d: SplitDesign, E
         t_g_cap = (1.0 + k) * torque_limit(w_g, d.s_gen, G)
         t_max = max_torque(w_e, d.s_eng, E)
         t_cap = min(t_max, t_g_cap)
-    t_target = min(max(p_e / w_e, 0.0), t_cap)
-    t_acc = j_dt * (w_e - w_ref)
-    if t_acc >= 0.0:
-        t_e = min(t_target + t_acc, t_max)
-        t_c = max(t_e - t_acc, -t_g_cap)
-    else:
-        # the slowing carrier's inertia stands in for the engine's torque; what is left over runs down in the
-        # engine's friction (the gear set gets what was planned)
-        t_e = max(t_target + t_acc, 0.0)
-        t_c = t_target
+    t_e = min(max(p_e / w_e, 0.0), t_cap)
+    t_c = t_e
     t_g = -t_c / (1.0 + k)
     t_r_eng = (
         d.planetary_efficiency * t_c * k / (1.0 + k) if t_c >= 0.0 else t_c * k / (1.0 + k) / d.planetary_efficiency
@@ -270,23 +256,20 @@ def _engine_power_for_battery(
 
 
 @njit(cache=True)
-def _less_circulation(
-    t_e: float, t_acc: float, w_g: float, p_m_e: float, p_dis: float, d: SplitDesign, G: MachineArrays
-):
+def _less_circulation(t_e: float, w_g: float, p_m_e: float, p_dis: float, d: SplitDesign, G: MachineArrays):
     """Largest engine torque (<= ``t_e``) whose motoring generator keeps the battery within ``p_dis``
     (bisection; the generator's draw grows with engine torque); if even none is too much, the
-    accessory load is shed. ``t_acc`` of the engine's torque accelerates the carrier (the rest reaches the gear
-    set). Returns (t_e, t_g, ring torque from the engine, p_g_e, p_acc)."""
+    accessory load is shed. Returns (t_e, t_g, ring torque from the engine, p_g_e, p_acc)."""
     k = d.n_r / d.n_s
     lo, hi = 0.0, t_e
     for _ in range(24):
         mid = 0.5 * (lo + hi)
-        if p_m_e + electric_power(-(mid - t_acc) / (1.0 + k), w_g, d.s_gen, G) + d.p_acc_w > p_dis:
+        if p_m_e + electric_power(-mid / (1.0 + k), w_g, d.s_gen, G) + d.p_acc_w > p_dis:
             hi = mid
         else:
             lo = mid
     t_g_cap = (1.0 + k) * torque_limit(w_g, d.s_gen, G)
-    t_c = min(max(lo - t_acc, -t_g_cap), t_g_cap)
+    t_c = min(max(lo, -t_g_cap), t_g_cap)
     p_g_e = electric_power(-t_c / (1.0 + k), w_g, d.s_gen, G)
     p_acc = max(min(d.p_acc_w, p_dis - p_m_e - p_g_e), 0.0)
     t_r_eng = (
@@ -297,7 +280,7 @@ def _less_circulation(
 
 @njit(cache=True, inline="always")
 def _point(pt: OnPoint):
-    """The fields of an :class:`OnPoint` read by name, in the order :func:`_dispatch` keeps them as locals."""
+    """The fields of an :class:`OnPoint` read by name, in the order :func:`dispatch` keeps them as locals."""
     return pt.w_e, pt.t_e, pt.w_g, pt.t_g, pt.t_m, pt.t_r_eng, pt.p_m_e, pt.p_g_e, pt.t_c
 
 
@@ -306,27 +289,8 @@ def dispatch(
     lim: SplitLimits, cmd: SplitCommand, d: SplitDesign, E: EngineArrays, M: MachineArrays, G: MachineArrays
 ) -> SplitState:
     """Operating point at the speed of ``lim`` (:func:`limits`) for the step's command ``cmd`` (wheel force,
-    engine state and target power, battery power limits, regenerative share) within every limit.
-
-    A carrier that would need more battery power to move than the battery can give (the generator motoring it
-    up) holds its speed instead, where holding asks less of the battery.
-    """
-    st = _dispatch(lim, cmd, d, E, M, G)
-    if st.running and lim.j_dt > 0.0 and st.p_batt > cmd.p_dis_w * (1.0 + 1e-9) + 1e-6:
-        w_hold = min(max(lim.w_ref, lim.lo), lim.hi)
-        held = within_rate(lim, w_hold, 0.0, lim.j_dt, d, E, G)
-        lim = SplitLimits(
-            w_r=lim.w_r, t_m_cap=lim.t_m_cap, lo=w_hold, hi=w_hold, p_e_max=held.p_e_max, w_ref=lim.w_ref, j_dt=lim.j_dt
-        )
-        st_h = _dispatch(lim, at_power(cmd, min(cmd.p_e_target_w, held.p_e_max)), d, E, M, G)
-        if st_h.p_batt < st.p_batt:
-            st = st_h
-    return st
-
-
-@njit(cache=True)
-def _dispatch(lim: SplitLimits, cmd: SplitCommand, d, E, M, G) -> SplitState:
-    """:func:`dispatch` for a carrier free to move within the window of ``lim`` (arguments as there)."""
+    engine state and target power, battery power limits, regenerative share) within every limit; the carrier
+    is free to move within the window of ``lim``."""
     f_req, engine_on, p_e_target = cmd.f_req_n, cmd.engine_on, cmd.p_e_target_w
     p_dis, p_chg, regen_frac = cmd.p_dis_w, cmd.p_chg_w, cmd.regen_share
     w_r, t_m_cap, lo, hi = lim.w_r, lim.t_m_cap, lim.lo, lim.hi
@@ -359,7 +323,7 @@ def _dispatch(lim: SplitLimits, cmd: SplitCommand, d, E, M, G) -> SplitState:
             if p_batt > p_dis and p_g_e > 0.0:
                 # ... and when the generator motors (power circulation: engine slower than the ring
                 # drags the sun backwards) less engine torque, down to none, then accessories shed
-                cut = _less_circulation(t_e, t_e - t_c, w_g, p_m_e, p_dis, d, G)
+                cut = _less_circulation(t_e, w_g, p_m_e, p_dis, d, G)
                 t_e, t_g, t_r_eng, p_g_e, p_acc = cut.t_e, cut.t_g, cut.t_r_eng, cut.p_g_e, cut.p_acc
                 t_c = -t_g * (1.0 + k)
             if p_m_e + p_g_e + p_acc > p_dis:
@@ -370,13 +334,6 @@ def _dispatch(lim: SplitLimits, cmd: SplitCommand, d, E, M, G) -> SplitState:
             # less engine power first (battery power rises as engine power falls) ...
             st0 = _engine_on(0.0, lim, t_r_drive, d, E, M, G)
             h0 = st0.p_m_e + st0.p_g_e + p_acc
-            if h0 < -p_chg and lim.j_dt > 0.0:
-                # a slowing carrier's inertia the battery cannot take runs down in the engine's friction instead
-                lim = SplitLimits(
-                    w_r=lim.w_r, t_m_cap=lim.t_m_cap, lo=lo, hi=hi, p_e_max=lim.p_e_max, w_ref=lim.w_ref, j_dt=0.0
-                )
-                st0 = _engine_on(0.0, lim, t_r_drive, d, E, M, G)
-                h0 = st0.p_m_e + st0.p_g_e + p_acc
             if h0 < -p_chg:
                 w_e, t_e, w_g, t_g, t_m, t_r_eng, p_m_e, p_g_e, t_c = _point(st0)
             else:
@@ -417,9 +374,16 @@ def _dispatch(lim: SplitLimits, cmd: SplitCommand, d, E, M, G) -> SplitState:
             elif t_m > 0.0:
                 t_m = torque_for_power(p_dis - p_acc - p_g_e, w_r, d.s_mot, t_m, M)
                 p_m_e = electric_power(t_m, w_r, d.s_mot, M)
-        elif p_batt < -p_chg and t_m < 0.0:
-            t_m = torque_for_power(min(-p_chg - p_acc - p_g_e, -1e-9), w_r, d.s_mot, -t_m, M)
-            p_m_e = electric_power(t_m, w_r, d.s_mot, M)
+        elif p_batt < -p_chg:
+            if t_m < 0.0:
+                t_m = torque_for_power(min(-p_chg - p_acc - p_g_e, -1e-9), w_r, d.s_mot, -t_m, M)
+                p_m_e = electric_power(t_m, w_r, d.s_mot, M)
+            if p_m_e + p_g_e + p_acc < -p_chg and w_r > 0.0:
+                # a spun engine's generator (holding the sun at its speed limit, reacting the engine's drag) still
+                # gives more than the pack can take: the motor spends the rest against the friction brakes (a budget
+                # 0.5 % above what is needed: the torque found stays within its budget, from below)
+                t_m = torque_for_power(1.005 * (-p_chg - p_acc - p_g_e), w_r, d.s_mot, t_m_cap, M)
+                p_m_e = electric_power(t_m, w_r, d.s_mot, M)
         p_batt = p_m_e + p_g_e + p_acc
         t_r = t_r_eng + t_m
         t_c = t_e
@@ -449,12 +413,11 @@ class CarrierDynamics(NamedTuple):
     t_spin: float  # most carrier torque the generator can apply (its low-speed torque limit times 1 + k), N m
     t_crank: float  # the engine's resistance while cranked (compression and friction), N m
     w_fire: float  # speed at which the engine fires (fuel on), rad/s
-    dw_max: float  # most carrier speed change in one step (generator's low-speed torque on the inertia), rad/s
 
 
 @njit(cache=True, inline="always")
 def carrier_dynamics(
-    d: SplitDesign, G: MachineArrays, j_start: float, j_gen: float, t_crank: float, w_fire: float, dt: float
+    d: SplitDesign, G: MachineArrays, j_start: float, j_gen: float, t_crank: float, w_fire: float
 ) -> CarrierDynamics:
     """The carrier of design ``d``: the engine's start-up inertia and crank torque (base engine values, scaled
     with the engine like its torque), the generator's rotor reflected through Willis (``w_g = (1 + k) w_e``
@@ -462,38 +425,88 @@ def carrier_dynamics(
     k = d.n_r / d.n_s
     j = d.s_eng * j_start + d.s_gen * j_gen * (1.0 + k) * (1.0 + k)
     t_spin = (1.0 + k) * torque_limit(0.0, d.s_gen, G)
-    return CarrierDynamics(j=j, t_spin=t_spin, t_crank=d.s_eng * t_crank, w_fire=w_fire, dw_max=dt * t_spin / j)
+    return CarrierDynamics(j=j, t_spin=t_spin, t_crank=d.s_eng * t_crank, w_fire=w_fire)
+
+
+#: The spin-up's torque is cut where the generator's draw at firing speed (its largest) would take more than
+#: this share over what the pack can spare: the margin left for the draw's rise with the losses.
+SPIN_MARGIN = 1.05
+
+
+class SpinUp(NamedTuple):
+    """One step's part of a start's spin-up (:func:`spin_up`): the generator turns the unfuelled engine from the
+    carrier's speed towards its firing speed at a constant torque."""
+
+    t_left_s: float  # time to firing speed from the step's carrier speed (0: none needed; inf: cannot start)
+    tau_s: float  # the part of the step the spin-up takes, min(step, t_left_s)
+    w_end_rad_s: float  # carrier speed at the end of that part
+    w_mean_rad_s: float  # its mean over the part
+    t_gen_nm: float  # the generator's torque on the sun
+    w_gen_rad_s: float  # the sun's speed at the part's mean carrier speed
+    e_mech_j: float  # work into the carrier over the part: kinetic energy gained plus the crank work
+    e_elec_j: float  # the generator's electrical energy over the part: that work plus its losses at the mean speed
 
 
 @njit(cache=True, inline="always")
-def start_cost(w0: float, cd: CarrierDynamics) -> tuple[float, float]:
-    """(mechanical energy J, duration s) of spinning the engine from ``w0`` to its firing speed with the
-    generator at full torque against the crank torque: ``J (w_f^2 - w0^2) / 2 + T_crank theta``, the angle
-    ``theta = (w0 + w_f) / 2 * t`` turned in ``t = J (w_f - w0) / (T_spin - T_crank)``. Nothing when the
-    carrier already turns at firing speed; ``(inf, inf)`` when the generator cannot overcome the crank torque
-    (the engine cannot be started)."""
+def spin_up(w0: float, w_r: float, p_spare_w: float, cd: CarrierDynamics, d: SplitDesign, G, h: float) -> SpinUp:
+    """The part of a step of length ``h`` a start's spin-up takes, from carrier speed ``w0`` at ring speed ``w_r``.
+
+    The generator spins the carrier at its full low-speed torque (``cd.t_spin``), or at the torque whose draw at
+    firing speed, the largest of the spin-up, stays within ``p_spare_w`` (what the pack can spare) with
+    :data:`SPIN_MARGIN`; at a constant torque ``T`` the carrier accelerates at ``(T - T_crank) / J`` and takes
+    ``t = J (w_f - w0) / (T - T_crank)``. The draw is the carrier's work rate ``T w`` plus the generator's losses
+    (the sun's reaction on the ring, ``k / (1 + k) T``, is held by the motor from the same pack). A spin-up longer
+    than the step runs on over the next steps, each with its own part: the work ``T w_mean tau`` (kinetic energy
+    gained plus the crank work), the generator's losses at its own mean speed. ``t_left_s = inf`` where no torque
+    within the pack's spare power overcomes the crank torque (the engine cannot start now)."""
     if w0 >= cd.w_fire:
-        return 0.0, 0.0
-    if cd.t_spin <= cd.t_crank:
-        return np.inf, np.inf
-    t = cd.j * (cd.w_fire - w0) / (cd.t_spin - cd.t_crank)
-    return 0.5 * cd.j * (cd.w_fire * cd.w_fire - w0 * w0) + cd.t_crank * 0.5 * (w0 + cd.w_fire) * t, t
-
-
-@njit(cache=True, inline="always")
-def within_rate(
-    lim: SplitLimits, w_from: float, dw: float, j_dt: float, d: SplitDesign, E: EngineArrays, G: MachineArrays
-):
-    """``lim`` for a carrier that turns at ``w_from`` at the start of the step with inertia ``j_dt`` (J / dt): the
-    engine's speed window cut to ``w_from +/- dw`` (what the generator can reach this step), its most power
-    re-taken at the new top; the window uncut where the cut leaves no speed (the gear set's window moved away
-    faster than the generator could follow: the generator's speed limit comes first)."""
-    lo, hi = max(lim.lo, w_from - dw), min(lim.hi, w_from + dw)
-    if lo > hi or (lo == lim.lo and hi == lim.hi):
-        return SplitLimits(
-            w_r=lim.w_r, t_m_cap=lim.t_m_cap, lo=lim.lo, hi=lim.hi, p_e_max=lim.p_e_max, w_ref=w_from, j_dt=j_dt
+        return SpinUp(
+            t_left_s=0.0,
+            tau_s=0.0,
+            w_end_rad_s=w0,
+            w_mean_rad_s=w0,
+            t_gen_nm=0.0,
+            w_gen_rad_s=0.0,
+            e_mech_j=0.0,
+            e_elec_j=0.0,
         )
     k = d.n_r / d.n_s
-    w_g = sun_speed(hi, lim.w_r, d.n_r, d.n_s)
-    p_max = hi * min(max_torque(hi, d.s_eng, E), (1.0 + k) * torque_limit(w_g, d.s_gen, G))
-    return SplitLimits(w_r=lim.w_r, t_m_cap=lim.t_m_cap, lo=lo, hi=hi, p_e_max=p_max, w_ref=w_from, j_dt=j_dt)
+    t_c = cd.t_spin
+    w_g_fire = sun_speed(cd.w_fire, w_r, d.n_r, d.n_s)
+    for _ in range(3):
+        # the draw at firing speed as booked: the carrier's work rate plus the generator's losses (the ring's share
+        # of the sun's reaction is the motor's to hold, from the same pack)
+        t_g = t_c / (1.0 + k)
+        p_fire = t_c * cd.w_fire + electric_power(t_g, w_g_fire, d.s_gen, G) - t_g * w_g_fire
+        if p_fire * SPIN_MARGIN <= p_spare_w:
+            break
+        t_c = t_c * max(p_spare_w, 0.0) / (SPIN_MARGIN * p_fire)
+    if t_c <= cd.t_crank:
+        return SpinUp(
+            t_left_s=np.inf,
+            tau_s=0.0,
+            w_end_rad_s=w0,
+            w_mean_rad_s=w0,
+            t_gen_nm=0.0,
+            w_gen_rad_s=0.0,
+            e_mech_j=0.0,
+            e_elec_j=0.0,
+        )
+    a = (t_c - cd.t_crank) / cd.j
+    t_left = (cd.w_fire - w0) / a
+    tau = min(h, t_left)
+    w1 = cd.w_fire if tau == t_left else w0 + a * tau
+    w_mean = 0.5 * (w0 + w1)
+    t_g = t_c / (1.0 + k)
+    w_g = sun_speed(w_mean, w_r, d.n_r, d.n_s)
+    e_mech = t_c * w_mean * tau
+    return SpinUp(
+        t_left_s=t_left,
+        tau_s=tau,
+        w_end_rad_s=w1,
+        w_mean_rad_s=w_mean,
+        t_gen_nm=t_g,
+        w_gen_rad_s=w_g,
+        e_mech_j=e_mech,
+        e_elec_j=e_mech + (electric_power(t_g, w_g, d.s_gen, G) - t_g * w_g) * tau,
+    )

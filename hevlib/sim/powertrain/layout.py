@@ -84,7 +84,6 @@ OUT_NAMES = (
     "t_cat_end_c",
     "t_cat_max_c",
     "e_engine_start_j",
-    "e_engine_inertia_j",
     "e_shaft_fuelled_j",
     "acc_abs_err_sum_mps2",
     "acc_req_max_mps2",
@@ -152,7 +151,6 @@ O_T_COOLANT_END_C = OUT_NAMES.index("t_coolant_end_c")
 O_T_CAT_END_C = OUT_NAMES.index("t_cat_end_c")
 O_T_CAT_MAX_C = OUT_NAMES.index("t_cat_max_c")
 O_E_ENGINE_START = OUT_NAMES.index("e_engine_start_j")
-O_E_ENGINE_INERTIA = OUT_NAMES.index("e_engine_inertia_j")
 O_E_SHAFT_FUELLED = OUT_NAMES.index("e_shaft_fuelled_j")
 O_ACC_ABS_ERR = OUT_NAMES.index("acc_abs_err_sum_mps2")
 O_ACC_REQ_MAX = OUT_NAMES.index("acc_req_max_mps2")
@@ -177,7 +175,6 @@ BALANCE_SINKS = (
     "e_kin_end_j",
     "e_mismatch_j",
     "e_engine_start_j",
-    "e_engine_inertia_j",
 )
 
 # ---- trace channels (one row per time step, recorded designs only): T_* as O_* above
@@ -216,7 +213,19 @@ TRACE_NAMES = (
     "co_tailpipe_g_s",
     "nox_tailpipe_g_s",
     "p_engine_start_w",
-    "t_eng_inertia_nm",
+    # a split step's spin-up part (hevlib.sim.drive): its length (0: none; the channels above are then the step's,
+    # else the rest of the step's, but for p_batt_w, fuel_g_s, f_pt_n and p_engine_start_w: the step's means),
+    # and the engine's (unfuelled: 0 unless the gear set spins it; the spin-up's own work is p_engine_start_w's),
+    # motor's, generator's and wheels' state in it
+    "spin_part_s",
+    "spin_w_eng_rad_s",
+    "spin_t_eng_nm",
+    "spin_t_mot_nm",
+    "spin_p_mot_elec_w",
+    "spin_w_gen_rad_s",
+    "spin_t_gen_nm",
+    "spin_p_gen_elec_w",
+    "spin_f_pt_n",
 )
 N_T = len(TRACE_NAMES)
 assert len(set(TRACE_NAMES)) == N_T, "a channel name twice"
@@ -254,4 +263,12 @@ T_HC_TP = TRACE_NAMES.index("hc_tailpipe_g_s")
 T_CO_TP = TRACE_NAMES.index("co_tailpipe_g_s")
 T_NOX_TP = TRACE_NAMES.index("nox_tailpipe_g_s")
 T_P_ENGINE_START = TRACE_NAMES.index("p_engine_start_w")
-T_T_INERTIA = TRACE_NAMES.index("t_eng_inertia_nm")
+T_SPIN_PART_S = TRACE_NAMES.index("spin_part_s")
+T_SPIN_W_ENG = TRACE_NAMES.index("spin_w_eng_rad_s")
+T_SPIN_T_ENG = TRACE_NAMES.index("spin_t_eng_nm")
+T_SPIN_T_MOT = TRACE_NAMES.index("spin_t_mot_nm")
+T_SPIN_P_MOT_E = TRACE_NAMES.index("spin_p_mot_elec_w")
+T_SPIN_W_GEN = TRACE_NAMES.index("spin_w_gen_rad_s")
+T_SPIN_T_GEN = TRACE_NAMES.index("spin_t_gen_nm")
+T_SPIN_P_GEN_E = TRACE_NAMES.index("spin_p_gen_elec_w")
+T_SPIN_F_PT = TRACE_NAMES.index("spin_f_pt_n")
