@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-pytestmark = [pytest.mark.slow, pytest.mark.repro, pytest.mark.timeout(3600)]
+pytestmark = [pytest.mark.slow, pytest.mark.repro, pytest.mark.timeout(4800)]
 
 
 def _git(*args: str, cwd: Path = REPO) -> str:
@@ -47,7 +47,8 @@ def _fresh_clone(tmp_path: Path) -> tuple[Path, dict]:
 
 def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path):
     clone, env = _fresh_clone(tmp_path)
-    out = subprocess.run(["dvc", "repro"], cwd=clone, env=env, capture_output=True, text=True, timeout=1800)
+    # about 25 min on CI's 2 cores alone; CI runs it beside the test suite (.ci/run), which slows it by a quarter
+    out = subprocess.run(["dvc", "repro"], cwd=clone, env=env, capture_output=True, text=True, timeout=3000)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     status = _git("status", "--porcelain", cwd=clone)
     assert status == "", status
@@ -81,8 +82,6 @@ def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path
 KNOWN_STALE = {
     "benchmarks/surrogate/dvc.yaml": "its lock predates the code (the runs were made before the pins of 7db92b8); "
     "rerunning it takes about 2 h, and its run folders (data/benchmark/runs, git-ignored, not cached) are in no clone",
-    "benchmarks/robustness/dvc.yaml": "the seed spread was measured on simulator v5 and not yet rerun on v6 (60-70 min "
-    "on two cores, issue 52 part 5); until it is, summary.md shows none of its figures (made with other code)",
 }
 
 
@@ -97,7 +96,7 @@ def _assert_dvc_status_is_quiet(clone: Path, env: dict) -> None:
     )
     quiet = sorted(str(p.relative_to(clone)) for p in clone.glob("**/dvc.yaml") if ".venv" not in p.parts)
     quiet = [p for p in quiet if p not in KNOWN_STALE]
-    assert "dvc.yaml" in quiet and "benchmarks/fleet/dvc.yaml" in quiet
+    assert {"dvc.yaml", "benchmarks/fleet/dvc.yaml", "benchmarks/robustness/dvc.yaml"} <= set(quiet)
     shown = subprocess.run(["dvc", "status", *quiet], cwd=clone, env=env, capture_output=True, text=True)
     lines = [line for line in shown.stdout.splitlines() if line.strip()]
     assert shown.returncode == 0 and lines == ["Data and pipelines are up to date."], shown.stdout + shown.stderr
