@@ -31,6 +31,15 @@ within its window in both (its inertia left out).
 the last step's grid); the forward pass's small surplus is booked like the simulator's (net battery energy, the
 J1711 SOC correction of :func:`hevlib.sim.simulator.responses` on the bound's own run).
 
+**ECMS** (:func:`ecms_fuel`): a causal controller on the same candidates, limits, starts and booking, so the two
+compare on one yardstick: each step the control of least fuel plus the battery's energy (its charge at the
+open-circuit voltage) at the equivalence factor ``s = s0 + gain (soc_target - soc)`` (adaptive ECMS with SOC
+feedback, Onori, Serrao and Rizzoni 2016), ``s0`` the reciprocal of the engine's best efficiency on its map
+(:func:`equivalence_factor`), the target the control file's; in the dynamic programme's forward pass
+(:func:`_forward`) with a cost-to-go linear in SOC in place of the programme's. It knows nothing of the trace ahead:
+what it burns above the bound is what foresight is worth (e.g. an engine kept running through a short stop instead
+of a costly restart), what the rule base burns above ECMS what its rules leave.
+
 **Controls.** On each step the engine-on candidates are a grid of ``n_speed`` speeds across the engine's window
 at that ring speed and ``n_torque`` torques from zero to the most the engine and the generator can take at each
 speed; of them only those on the step's fuel-against-battery-power front are kept (a candidate that burns more and
@@ -334,6 +343,81 @@ def _best(
     return best, e_best, j_best, s_best, q_best, p_best
 
 
+class Ecms(NamedTuple):
+    """An equivalent-consumption minimisation (ECMS) controller's settings (:func:`ecms_run`): each step it picks the
+    control of least ``fuel + s (battery energy) / LHV``, the equivalence factor ``s = s0 + gain (soc_target - soc)``
+    (the adaptive ECMS of Onori, Serrao and Rizzoni, *Hybrid Electric Vehicles: Energy Management Strategies*,
+    Springer 2016, ch. 5: SOC feedback that holds charge)."""
+
+    s0: float  # fuel energy per unit of battery (chemical) energy, at the target SOC
+    gain: float  # per unit of SOC below the target
+    soc_target: float
+
+
+#: The dynamic programme's forward pass (no ECMS).
+NO_ECMS = Ecms(s0=0.0, gain=0.0, soc_target=0.0)
+
+
+@njit(cache=True)
+def _forward(veh: HybridRec, i: int, ctl: StepControls, soc0: float, J, soc_lo, step, ecms: Ecms, o, record):
+    """The run from ``soc0`` with the engine off (the drive's start), each step's control the least of
+    :func:`_best`'s cost: fuel plus the cost-to-go ``J`` (the dynamic programme), or with ``ecms.s0 > 0`` fuel plus
+    the battery energy at the equivalence factor of the step's SOC (ECMS: a cost-to-go linear in SOC, the same
+    candidates, limits and booking). Fills ``o`` (an ``O_*`` row) and ``record`` (:data:`TRACE_COLUMNS`); the
+    SOC end is NaN where no admissible control drives a step (``O_N_STEPS`` that step)."""
+    row, c, sc, B = veh.rows[i], veh.c, veh.sc, veh.B
+    n_bat = row[R_N_BAT]
+    dt, cap, eta_c = c.dt, sc.cap_as, sc.eta_c
+    key_off, fuel, w_e, t_e = ctl.key_off, ctl.fuel_g_s, ctl.w_e, ctl.t_e
+    p_gm, p_ge, v_mean = ctl.p_gen_mech_w, ctl.p_gen_elec_w, ctl.v_mean_mps
+    n = key_off.shape[0]
+    lhv = c.lhv_j_per_g
+    use_ecms = ecms.s0 > 0.0
+    n_soc = int(round((sc.soc_max - soc_lo) / step)) + 1
+    lin = np.empty((2, n_soc))
+    soc, e_prev = soc0, 0
+    record[0, 0] = soc
+    for t in range(n):
+        oc, rd, rc = pack_state(soc, n_bat, B)
+        pd_, pc_ = pack_power_limits(oc, rd, rc, soc, sc.soc_min, n_bat, sc, dt)
+        if use_ecms:
+            # fuel (g) a unit of SOC is worth at this step's equivalence factor: its charge at the open-circuit
+            # voltage, over the fuel's heating value; the cost-to-go linear in SOC (grid and window as the DP's)
+            s_eq = max(ecms.s0 + ecms.gain * (ecms.soc_target - soc), 0.0)
+            g_per_soc = s_eq * oc * cap / lhv
+            for g in range(n_soc):
+                lin[0, g] = lin[1, g] = g_per_soc * (sc.soc_max - (soc_lo + step * g))
+            J1 = lin
+        else:
+            J1 = J[t + 1]
+        cost, e, j, s1, q, p_b = _best(J1, soc, e_prev, t, ctl, (oc, rd, rc, pd_, pc_, eta_c), soc_lo, step, dt, cap)
+        if cost == INF:
+            o[L.O_SOC_END] = np.nan
+            o[L.O_N_STEPS] = t  # the step no admissible control drives
+            return o
+        if e == 1:
+            f = fuel[t, j]
+            o[L.O_FUEL_G] += f * dt
+            o[L.O_E_FUEL] += f * lhv * dt
+            o[L.O_E_ENG_SHAFT] += w_e[t, j] * t_e[t, j] * dt
+            o[L.O_E_GEN_MECH_IN] += p_gm[t, j] * dt
+            o[L.O_E_GEN_ELEC_OUT] += p_ge[t, j] * dt
+            o[L.O_ENG_ON_STEPS] += 1.0
+            if e_prev == 0:
+                o[L.O_N_STARTS] += 1.0
+            record[t + 1, 2], record[t + 1, 3], record[t + 1, 5] = w_e[t, j], t_e[t, j], f
+        else:
+            record[t + 1, 2], record[t + 1, 3], record[t + 1, 5] = 0.0, 0.0, 0.0
+        o[L.O_E_BATT] += oc * q
+        o[L.O_DIST_M] += v_mean[t] * dt
+        soc, e_prev = s1, e
+        record[t + 1, 0], record[t + 1, 1], record[t + 1, 4] = soc, e, p_b
+    o[L.O_DIST_REF_M] = o[L.O_DIST_M]
+    o[L.O_SOC_END] = soc
+    o[L.O_N_STEPS] = n
+    return o
+
+
 @njit(cache=True)
 def bound_kernel(veh: HybridRec, i: int, ctl: StepControls, soc0: float, soc_step: float, record: np.ndarray):
     """Backward recursion of the cost-to-go on the SOC grid, then the forward pass from ``soc0`` with the engine off
@@ -345,9 +429,7 @@ def bound_kernel(veh: HybridRec, i: int, ctl: StepControls, soc0: float, soc_ste
     row, c, sc, B = veh.rows[i], veh.c, veh.sc, veh.B
     n_bat = row[R_N_BAT]
     dt, cap, eta_c = c.dt, sc.cap_as, sc.eta_c
-    key_off, fuel, w_e, t_e = ctl.key_off, ctl.fuel_g_s, ctl.w_e, ctl.t_e
-    p_gm, p_ge, v_mean = ctl.p_gen_mech_w, ctl.p_gen_elec_w, ctl.v_mean_mps
-    n = key_off.shape[0]
+    n = ctl.key_off.shape[0]
     soc_lo = sc.soc_min
     n_soc = int(round((sc.soc_max - sc.soc_min) / soc_step)) + 1
     step = (sc.soc_max - sc.soc_min) / (n_soc - 1)
@@ -379,41 +461,7 @@ def bound_kernel(veh: HybridRec, i: int, ctl: StepControls, soc0: float, soc_ste
             o[L.O_SOC_END] = np.nan
             o[L.O_N_STEPS] = t
             return o
-    # ---- forward from the exact state
-    lhv = c.lhv_j_per_g
-    soc, e_prev = soc0, 0
-    record[0, 0] = soc
-    for t in range(n):
-        oc, rd, rc = pack_state(soc, n_bat, B)
-        pd_, pc_ = pack_power_limits(oc, rd, rc, soc, sc.soc_min, n_bat, sc, dt)
-        cost, e, j, s1, q, p_b = _best(
-            J[t + 1], soc, e_prev, t, ctl, (oc, rd, rc, pd_, pc_, eta_c), soc_lo, step, dt, cap
-        )
-        if cost == INF:
-            o[L.O_SOC_END] = np.nan
-            o[L.O_N_STEPS] = t  # the step no admissible control drives
-            return o
-        if e == 1:
-            f = fuel[t, j]
-            o[L.O_FUEL_G] += f * dt
-            o[L.O_E_FUEL] += f * lhv * dt
-            o[L.O_E_ENG_SHAFT] += w_e[t, j] * t_e[t, j] * dt
-            o[L.O_E_GEN_MECH_IN] += p_gm[t, j] * dt
-            o[L.O_E_GEN_ELEC_OUT] += p_ge[t, j] * dt
-            o[L.O_ENG_ON_STEPS] += 1.0
-            if e_prev == 0:
-                o[L.O_N_STARTS] += 1.0
-            record[t + 1, 2], record[t + 1, 3], record[t + 1, 5] = w_e[t, j], t_e[t, j], f
-        else:
-            record[t + 1, 2], record[t + 1, 3], record[t + 1, 5] = 0.0, 0.0, 0.0
-        o[L.O_E_BATT] += oc * q
-        o[L.O_DIST_M] += v_mean[t] * dt
-        soc, e_prev = s1, e
-        record[t + 1, 0], record[t + 1, 1], record[t + 1, 4] = soc, e, p_b
-    o[L.O_DIST_REF_M] = o[L.O_DIST_M]
-    o[L.O_SOC_END] = soc
-    o[L.O_N_STEPS] = n
-    return o
+    return _forward(veh, i, ctl, soc0, J, soc_lo, step, NO_ECMS, o, record)
 
 
 @njit(cache=True)
@@ -518,31 +566,31 @@ class Bound(NamedTuple):
     kept_max: int
 
 
-def fuel_bound(vehicle, cycle: Cycle, grid: BoundGrid, soc_init: float | None = None) -> Bound:
-    """The charge-sustaining fuel bound of the one power-split vehicle of ``vehicle`` (a
-    :class:`hevlib.sim.vehicles.Vehicle` of one design, ``hybrid`` or ``prius``) on ``cycle``, from ``soc_init``
-    (else the vehicle's own initial SOC)."""
-    from hevlib.sim.simulator import RunOutput, responses
-
+def controls(vehicle, cycle: Cycle, grid: BoundGrid) -> StepControls:
+    """The step controls (:func:`step_controls`) of the one power-split vehicle of ``vehicle`` on ``cycle``, the
+    candidate tables cut to the most any step keeps."""
     if vehicle.kind == "conventional" or vehicle.n != 1:
         raise ValueError("bound: one power-split vehicle expected")
-    veh = vehicle.kernel
-    soc0 = float(veh.rows[0, R_SOC0]) if soc_init is None else float(soc_init)
     k_max = grid.n_speed * grid.n_torque
-    ctl = step_controls(veh, 0, cycle.to_kernel(), grid.n_speed, grid.n_torque, k_max)
-    kept = ctl.n_on
-    k_used = max(int(kept.max()), 1)
+    ctl = step_controls(vehicle.kernel, 0, cycle.to_kernel(), grid.n_speed, grid.n_torque, k_max)
+    k_used = max(int(ctl.n_on.max()), 1)
     per_candidate = ("fuel_g_s", "p_on_w", "shed_on_w", "w_e", "t_e", "p_gen_mech_w", "p_gen_elec_w")
-    ctl = StepControls(
+    return StepControls(
         **{f: getattr(ctl, f)[:, :k_used].copy() if f in per_candidate else getattr(ctl, f) for f in ctl._fields}
     )
-    record = np.zeros((cycle.n_steps, len(TRACE_COLUMNS)))
-    o = bound_kernel(veh, 0, ctl, soc0, grid.soc_step, record)
+
+
+def _run(vehicle, cycle: Cycle, ctl: StepControls, o: np.ndarray, record: np.ndarray, soc0: float) -> Bound:
+    """A :class:`Bound` of the run ``o`` (an ``O_*`` row) and ``record`` from ``soc0``; :class:`Infeasible` where
+    no admissible control drove a step."""
+    from hevlib.sim.simulator import RunOutput, responses
+
     if not np.isfinite(o[L.O_SOC_END]):
         raise Infeasible(int(o[L.O_N_STEPS]))
     # no performance tests: their three responses are dropped
     run = RunOutput(o[None, :], np.zeros((1, 3)), np.asarray(vehicle.mass_kg, float), None, np.array([soc0]))
     r = responses(run, cycle, vehicle.library).drop(columns=["v_max", "f_max", "t_0_100_s"]).iloc[0].to_dict()
+    kept = ctl.n_on
     on = kept[kept > 0]
     return Bound(
         responses=r,
@@ -553,6 +601,79 @@ def fuel_bound(vehicle, cycle: Cycle, grid: BoundGrid, soc_init: float | None = 
         kept_median=float(np.median(on)) if on.size else 0.0,
         kept_max=int(kept.max()),
     )
+
+
+def fuel_bound(
+    vehicle, cycle: Cycle, grid: BoundGrid, soc_init: float | None = None, *, ctl: StepControls | None = None
+) -> Bound:
+    """The charge-sustaining fuel bound of the one power-split vehicle of ``vehicle`` (a
+    :class:`hevlib.sim.vehicles.Vehicle` of one design, ``hybrid`` or ``prius``) on ``cycle``, from ``soc_init``
+    (else the vehicle's own initial SOC); ``ctl``: its :func:`controls` on ``grid`` where already made."""
+    ctl = controls(vehicle, cycle, grid) if ctl is None else ctl
+    soc0 = float(vehicle.kernel.rows[0, R_SOC0]) if soc_init is None else float(soc_init)
+    record = np.zeros((cycle.n_steps, len(TRACE_COLUMNS)))
+    o = bound_kernel(vehicle.kernel, 0, ctl, soc0, grid.soc_step, record)
+    return _run(vehicle, cycle, ctl, o, record, soc0)
+
+
+def equivalence_factor(vehicle) -> float:
+    """ECMS's equivalence factor at the target SOC for ``vehicle``'s engine: the reciprocal of its best efficiency
+    on its map (the fuel energy a unit of battery energy replaces if the engine made it at its best point, no
+    electrical loss counted); its component file's, nothing fitted."""
+    E, lhv = vehicle.kernel.E, vehicle.kernel.c.lhv_j_per_g
+    best = 0.0
+    for p_w, w, t in zip(E.line_p[1:], E.line_w[1:], E.line_t[1:], strict=True):
+        fuel = rates(float(w), float(t), 1.0, E)[0]
+        if fuel > 0.0:
+            best = max(best, float(p_w) / (fuel * lhv))
+    if best <= 0.0:
+        raise ValueError("ecms: the engine's map has no point of positive efficiency")
+    return 1.0 / best
+
+
+class EcmsRun(NamedTuple):
+    """ECMS on a cycle (:func:`ecms_fuel`): its last run (a :class:`Bound` of the same fields: responses, trace
+    ...), how many runs the charge balance took, whether it balanced, and the controller's settings."""
+
+    run: Bound
+    runs: int
+    balanced: bool
+    settings: Ecms
+
+
+def ecms_fuel(
+    vehicle,
+    cycle: Cycle,
+    grid: BoundGrid,
+    gain: float,
+    soc_init: float | None = None,
+    *,
+    tolerance: float = 0.01,
+    max_runs: int = 10,
+    ctl: StepControls | None = None,
+) -> EcmsRun:
+    """The one power-split vehicle of ``vehicle`` on ``cycle`` under ECMS (:class:`Ecms`: the equivalence factor
+    :func:`equivalence_factor` at the control file's target SOC, SOC feedback of ``gain``), on the bound's model
+    and candidates (:func:`step_controls`: the hot map, the same limits, starts and booking, so the two compare on
+    one yardstick), charge-balanced as the simulator balances (SAE J1711): from ``soc_init`` (else the vehicle's),
+    rerun from the end SOC while the net battery energy exceeds ``tolerance`` of the fuel energy, at most
+    ``max_runs`` runs; ``ctl``: the vehicle's :func:`controls` on ``grid`` where already made."""
+    ctl = controls(vehicle, cycle, grid) if ctl is None else ctl
+    settings = Ecms(s0=equivalence_factor(vehicle), gain=float(gain), soc_target=float(vehicle.kernel.pc.soc_target))
+    soc0 = float(vehicle.kernel.rows[0, R_SOC0]) if soc_init is None else float(soc_init)
+    sc = vehicle.kernel.sc
+    step = (sc.soc_max - sc.soc_min) / (int(round((sc.soc_max - sc.soc_min) / grid.soc_step)))
+    no_j = np.zeros((1, 2, 1))
+    runs, balanced, soc_next = 0, False, soc0
+    while not balanced and runs < max_runs:
+        soc0 = soc_next
+        record = np.zeros((cycle.n_steps, len(TRACE_COLUMNS)))
+        o = _forward(vehicle.kernel, 0, ctl, soc0, no_j, sc.soc_min, step, settings, np.zeros(L.N_O), record)
+        run = _run(vehicle, cycle, ctl, o, record, soc0)
+        runs += 1
+        balanced = abs(o[L.O_E_BATT]) <= tolerance * o[L.O_E_FUEL]
+        soc_next = run.soc_end
+    return EcmsRun(run=run, runs=runs, balanced=bool(balanced), settings=settings)
 
 
 def bound_trace(bound: Bound, cycle: Cycle) -> pd.DataFrame:

@@ -1,7 +1,8 @@
 """The controller's gap (issue 56, ``hev bound``): each pick's, the stock Prius's and the conventional car's fuel
-under their own controller (the study's rule base; the conventional car's shift logic) against the bound of
-:mod:`hevlib.bound` on the same hardware and trace, on one yardstick (SOC-corrected fuel on the engine's hot map),
-the headline saving at the bounds, and the bound's grid convergence where it is reported."""
+under their own controller (the study's rule base; the conventional car's shift logic) and under ECMS (a causal
+controller that minimises fuel plus the battery's energy at an equivalence factor, :func:`hevlib.bound.ecms_fuel`)
+against the bound of :mod:`hevlib.bound` on the same hardware and trace, on one yardstick (SOC-corrected fuel on the
+engine's hot map), the headline saving under each, and the bound's grid convergence where it is reported."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
-from hevlib.bound import Bound, BoundGrid, Infeasible, fuel_bound, gear_bound
+from hevlib.bound import Bound, BoundGrid, Infeasible, controls, ecms_fuel, fuel_bound, gear_bound
 from hevlib.cycles import Cycle
 from hevlib.sim.powertrain import layout as L
 
@@ -24,8 +25,11 @@ GAP_COLUMNS: dict[str, str] = {
     "rule_fc_hot": "L/100 km: the rule base's balanced run, SOC-corrected, on the hot map (the surplus out)",
     "bound_fc": "L/100 km: the bound, SOC-corrected (its end SOC at least its start)",
     "gap_pct": "%: how much more the rule base burns than the bound (rule_fc_hot / bound_fc - 1)",
+    "ecms_fc": "L/100 km: ECMS on the bound's model and candidates, charge-balanced (J1711), SOC-corrected",
+    "ecms_gap_pct": "%: how much more ECMS burns than the bound (ecms_fc / bound_fc - 1)",
     "rule_starts": "engine starts of the rule base's balanced run",
     "bound_starts": "engine starts on the bound's run",
+    "ecms_starts": "engine starts on ECMS's balanced run",
     "soc_init": "the SOC both start from: the rule base's charge-balanced start",
     "bound_soc_end": "the bound's final SOC",
     "note": "why there is no bound, where there is none",
@@ -47,8 +51,11 @@ def _conventional_row(label: str, vehicle, cname: str, cycle: Cycle) -> dict:
         "rule_fc_hot": float(r["fc"] * (1.0 - cold)),
         "bound_fc": np.nan,
         "gap_pct": np.nan,
+        "ecms_fc": np.nan,
+        "ecms_gap_pct": np.nan,
         "rule_starts": 0.0,
         "bound_starts": 0.0,
+        "ecms_starts": np.nan,
         "soc_init": np.nan,
         "bound_soc_end": np.nan,
         "note": "",
@@ -66,16 +73,45 @@ def _conventional_row(label: str, vehicle, cname: str, cycle: Cycle) -> dict:
     return row
 
 
+def _ecms_figures(vehicle, cycle: Cycle, grid: BoundGrid, gain: float, soc0: float, ctl, bound_fc: float) -> dict:
+    """A power-split row's ECMS columns (:func:`hevlib.bound.ecms_fuel` from ``soc0``, balanced as every stage
+    balances); a note where ECMS finds no admissible control or does not balance."""
+    sim = vehicle.library.params.sim
+    try:
+        e = ecms_fuel(
+            vehicle,
+            cycle,
+            grid,
+            gain,
+            soc0,
+            tolerance=sim.charge_balance_tolerance,
+            max_runs=sim.charge_balance_max_runs,
+            ctl=ctl,
+        )
+    except Infeasible as err:
+        return {"note": f"ecms: {err}"}
+    if not e.balanced:
+        return {"note": f"ecms: no charge balance in {e.runs} runs"}
+    fc = float(e.run.responses["fc_soc_corrected"])
+    return {
+        "ecms_fc": fc,
+        "ecms_gap_pct": 100.0 * (fc / bound_fc - 1.0),
+        "ecms_starts": float(e.run.responses["n_engine_starts"]),
+    }
+
+
 def controller_gap(
     vehicles: Mapping[str, object],
     cycles: Mapping[str, Cycle],
     grid: BoundGrid,
     progress: Callable[[int, int], None] | None = None,
+    ecms_gain: float = 20.0,
 ) -> pd.DataFrame:
     """For each vehicle (label -> a :class:`hevlib.sim.vehicles.Vehicle` of one design) and cycle: a power-split
-    car's rule base, charge-balanced (``sim.charge_balance_*`` as every stage balances), and its bound from the SOC
-    that run starts from; the conventional car's shift logic and its gear bound (:func:`gear_bound`); side by side
-    on one yardstick (SOC-corrected fuel on the hot map), :data:`GAP_COLUMNS`.
+    car's rule base, charge-balanced (``sim.charge_balance_*`` as every stage balances), its bound and ECMS (SOC
+    feedback ``ecms_gain``, balanced as the rule base) from the SOC that run starts from; the conventional car's
+    shift logic and its gear bound (:func:`gear_bound`); side by side on one yardstick (SOC-corrected fuel on the
+    hot map), :data:`GAP_COLUMNS`.
 
     A vehicle that does not meet a cycle's trace under the rule base gets no bound there (the bound follows the
     trace exactly: a controller's fuel on a trace it does not drive is not comparable); nor one whose trace the
@@ -108,8 +144,11 @@ def controller_gap(
                 "rule_fc_hot": float(r["fc_soc_corrected"] - cold * r["fc"]),
                 "bound_fc": np.nan,
                 "gap_pct": np.nan,
+                "ecms_fc": np.nan,
+                "ecms_gap_pct": np.nan,
                 "rule_starts": float(r["n_engine_starts"]),
                 "bound_starts": np.nan,
+                "ecms_starts": np.nan,
                 "soc_init": soc0,
                 "bound_soc_end": np.nan,
                 "note": "",
@@ -119,8 +158,9 @@ def controller_gap(
             elif not bool(cb["charge_balanced"].iloc[0]):
                 row["note"] = "the rule base does not balance its charge"
             else:
+                ctl = controls(vehicle, cycle, grid)
                 try:
-                    b = fuel_bound(vehicle, cycle, grid, soc0)
+                    b = fuel_bound(vehicle, cycle, grid, soc0, ctl=ctl)
                 except Infeasible as err:
                     row["note"] = f"bound: {err}"
                 else:
@@ -128,6 +168,7 @@ def controller_gap(
                     row["gap_pct"] = 100.0 * (row["rule_fc_hot"] / row["bound_fc"] - 1.0)
                     row["bound_starts"] = float(b.responses["n_engine_starts"])
                     row["bound_soc_end"] = b.soc_end
+                    row |= _ecms_figures(vehicle, cycle, grid, ecms_gain, soc0, ctl, row["bound_fc"])
             rows.append(row)
             done += 1
             if progress is not None:
@@ -162,12 +203,15 @@ LEAVES_OUT: tuple[str, ...] = (
 )
 
 
-def gap_report(table: pd.DataFrame, grid: BoundGrid, recommended: str, convergence: Mapping[str, float]) -> dict:
+def gap_report(
+    table: pd.DataFrame, grid: BoundGrid, recommended: str, convergence: Mapping[str, float], ecms_gain: float = 20.0
+) -> dict:
     """The controller's gap as ``reports/bound.json``: the settings, what the bound leaves out, every row of
     :func:`controller_gap`, per cycle the spread of the gap over the picks and the gaps of the recommended design,
     the stock Prius and the conventional car, the headline saving (the recommended design against the conventional
-    car, both on the hot map) under the rule base, with the hybrid at its bound, and with both at their bounds,
-    and the bound's grid convergence (``convergence``, on the recommended design and the first cycle)."""
+    car, both on the hot map) under the rule base, under ECMS, with the hybrid at its bound, and with both at their
+    bounds, ECMS's distance from the bound, and the bound's grid convergence (``convergence``, on the recommended
+    design and the first cycle)."""
 
     def one(rows: pd.DataFrame, vehicle: str, col: str) -> float:
         hit = rows.loc[rows["vehicle"] == vehicle, col]
@@ -176,9 +220,10 @@ def gap_report(table: pd.DataFrame, grid: BoundGrid, recommended: str, convergen
     by_cycle = {}
     for cname, rows in table.groupby("cycle", sort=False):
         picks = rows[~rows["vehicle"].isin(["prius", "conventional"])]
-        gaps = picks["gap_pct"].dropna()
+        gaps, ecms_gaps = picks["gap_pct"].dropna(), picks["ecms_gap_pct"].dropna()
         conv_rule, conv_bound = one(rows, "conventional", "rule_fc_hot"), one(rows, "conventional", "bound_fc")
         rec_rule, rec_bound = one(rows, recommended, "rule_fc_hot"), one(rows, recommended, "bound_fc")
+        rec_ecms = one(rows, recommended, "ecms_fc")
         by_cycle[cname] = {
             "picks_with_bound": int(gaps.size),
             "picks": int(len(picks)),
@@ -188,12 +233,17 @@ def gap_report(table: pd.DataFrame, grid: BoundGrid, recommended: str, convergen
             "recommended_gap_pct": one(rows, recommended, "gap_pct"),
             "prius_gap_pct": one(rows, "prius", "gap_pct"),
             "conventional_gap_pct": one(rows, "conventional", "gap_pct"),
+            "ecms_gap_pct_median": float(ecms_gaps.median()) if ecms_gaps.size else None,
+            "ecms_gap_pct_max": float(ecms_gaps.max()) if ecms_gaps.size else None,
+            "recommended_ecms_gap_pct": one(rows, recommended, "ecms_gap_pct"),
+            "prius_ecms_gap_pct": one(rows, "prius", "ecms_gap_pct"),
             "saving_rule_pct": 100.0 * (1.0 - rec_rule / conv_rule),
+            "saving_ecms_pct": 100.0 * (1.0 - rec_ecms / conv_rule),
             "saving_bound_pct": 100.0 * (1.0 - rec_bound / conv_rule),
             "saving_both_bounds_pct": 100.0 * (1.0 - rec_bound / conv_bound),
         }
     return {
-        "settings": {**grid._asdict(), "cycles": list(dict.fromkeys(table["cycle"]))},
+        "settings": {**grid._asdict(), "ecms_soc_gain": ecms_gain, "cycles": list(dict.fromkeys(table["cycle"]))},
         "recommended": recommended,
         "leaves_out": list(LEAVES_OUT),
         "columns": GAP_COLUMNS,
@@ -217,8 +267,9 @@ def gap_markdown(report: dict) -> str:
         + ".",
         "",
         "| cycle | picks with a bound | gap median (range) | recommended (" + rec + ") | stock Prius "
-        "| conventional (gears) | saving vs conventional: rule base | hybrid at its bound | both at their bounds |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| conventional (gears) | saving vs conventional: rule base | hybrid under ECMS | hybrid at its bound "
+        "| both at their bounds |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
 
     def pct(x):
@@ -236,7 +287,22 @@ def gap_markdown(report: dict) -> str:
         lines.append(
             f"| {cname} | {c['picks_with_bound']} of {c['picks']} | {spread} | {pct(c['recommended_gap_pct'])} "
             f"| {pct(c['prius_gap_pct'])} | {pct(c['conventional_gap_pct'])} | {num(c['saving_rule_pct'])} "
-            f"| {num(c['saving_bound_pct'])} | {num(c['saving_both_bounds_pct'])} |"
+            f"| {num(c['saving_ecms_pct'])} | {num(c['saving_bound_pct'])} | {num(c['saving_both_bounds_pct'])} |"
+        )
+    lines += [
+        "",
+        "ECMS (`hevlib.bound.ecms_fuel`): each step the control of least fuel plus battery energy at the equivalence "
+        f"factor s0 + {report['settings']['ecms_soc_gain']:g} x (target SOC - SOC), s0 the reciprocal of the engine's "
+        "best efficiency, on the bound's model and candidates (a causal controller: it knows nothing of the trace "
+        "ahead), charge-balanced as the rule base. How much more it burns than the bound:",
+        "",
+        "| cycle | picks: median (most) | recommended | stock Prius |",
+        "|---|---|---|---|",
+    ]
+    for cname, c in report["by_cycle"].items():
+        lines.append(
+            f"| {cname} | {pct(c['ecms_gap_pct_median'])} ({pct(c['ecms_gap_pct_max'])}) "
+            f"| {pct(c['recommended_ecms_gap_pct'])} | {pct(c['prius_ecms_gap_pct'])} |"
         )
     cv = report["convergence"]
     lines += [
@@ -249,16 +315,19 @@ def gap_markdown(report: dict) -> str:
         "nothing to carry from step to step).",
         "",
         "| vehicle | cycle | rule base, charge-balanced [L/100 km] | cold surplus | rule base, hot [L/100 km] "
-        "| bound [L/100 km] | gap | starts: rule / bound | note |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| ECMS [L/100 km] | bound [L/100 km] | gap: rule base / ECMS | starts: rule / ECMS / bound | note |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in report["rows"]:
-        b = "—" if not np.isfinite(r["bound_fc"]) else f"{r['bound_fc']:.3f}"
-        b_starts = "—" if not np.isfinite(r["bound_starts"]) else f"{r['bound_starts']:.0f}"
-        starts = f"{r['rule_starts']:.0f} / {b_starts}"
+        b, e = (("—" if not np.isfinite(r[k]) else f"{r[k]:.3f}") for k in ("bound_fc", "ecms_fc"))
+        b_starts, e_starts = (
+            ("—" if not np.isfinite(r[k]) else f"{r[k]:.0f}") for k in ("bound_starts", "ecms_starts")
+        )
+        starts = f"{r['rule_starts']:.0f} / {e_starts} / {b_starts}"
         lines.append(
             f"| {r['vehicle']} | {r['cycle']} | {r['rule_fc_charge_balanced']:.3f} | {r['rule_cold_pct']:.1f} % "
-            f"| {r['rule_fc_hot']:.3f} | {b} | {pct(r['gap_pct'])} | {starts} | {r['note']} |"
+            f"| {r['rule_fc_hot']:.3f} | {e} | {b} | {pct(r['gap_pct'])} / {pct(r['ecms_gap_pct'])} | {starts} "
+            f"| {r['note']} |"
         )
     return "\n".join(lines) + "\n"
 
@@ -285,13 +354,14 @@ def bound_study(
     cycles: Mapping[str, Cycle],
     grid: BoundGrid,
     progress: Callable[[int, int], None] | None = None,
+    ecms_gain: float = 20.0,
 ) -> BoundStudy:
     """The controller's gap of every design (``designs``: id -> its row of the seven variables), the stock Prius
-    and the conventional car on ``cycles`` (:func:`controller_gap`), and the grid convergence of the recommended
-    design's bound on the first cycle."""
+    and the conventional car on ``cycles`` (:func:`controller_gap`, ECMS with SOC feedback ``ecms_gain``), and the
+    grid convergence of the recommended design's bound on the first cycle."""
     vehicles = {"conventional": sim.vehicle(None, "conventional"), "prius": sim.vehicle(None, "prius")}
     vehicles.update({k: sim.vehicle(np.asarray(x, float).reshape(1, -1), "hybrid") for k, x in designs.items()})
-    table = controller_gap(vehicles, cycles, grid, progress)
+    table = controller_gap(vehicles, cycles, grid, progress, ecms_gain)
     first = next(iter(cycles))
     row = table[(table["vehicle"] == recommended) & (table["cycle"] == first)].iloc[0]
     if not np.isfinite(row["bound_fc"]):
@@ -299,5 +369,5 @@ def bound_study(
     soc0 = float(row["soc_init"])
     rec_bound, convergence = grid_convergence(vehicles[recommended], cycles[first], grid, soc0)
     rule_trace = sim.trace(np.asarray(designs[recommended], float).reshape(1, -1), cycles[first], soc_init=soc0)
-    report = gap_report(table, grid, recommended, convergence)
+    report = gap_report(table, grid, recommended, convergence, ecms_gain)
     return BoundStudy(report=report, table=table, recommended_bound=rec_bound, recommended_rule_trace=rule_trace)

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from hevlib import epa
-from hevlib.bound import BoundGrid, Infeasible, bound_trace, fuel_bound
+from hevlib.bound import BoundGrid, Infeasible, bound_trace, controls, ecms_fuel, fuel_bound
 from hevlib.params import BaselineParams, EpaParams, parse_params
 from hevlib.profiles import apply_overrides
 from hevlib.sim.simulator import Simulator
@@ -196,17 +196,44 @@ def _ftp_figures(bags: list[dict], prefix: str) -> dict:
     return out
 
 
-def _bound_figures(vehicle, cycle, grid: BoundGrid, soc0: float, category: str, density: float) -> dict:
-    """The mpg of a power-split car at the controller's bound (:func:`hevlib.bound.fuel_bound`, from the SOC of the
-    rule base's charge-balanced run), the FTP bag by bag; nothing where no control drives the trace."""
+#: The other controllers a power-split car is run under (:func:`_controller_figures`): column prefix -> what it is.
+CONTROLLERS: dict[str, str] = {
+    "bound": "the controller's bound (hevlib.bound: dynamic programming over SOC, the least fuel any controller "
+    "could burn on the same hardware)",
+    "ecms": "ECMS (hevlib.bound.ecms_fuel: a causal controller, fuel plus battery energy at an equivalence factor "
+    "with SOC feedback, on the bound's candidates)",
+}
+
+
+def _controller_figures(
+    vehicle, cycle, grid: BoundGrid, gain: float, soc0: float, category: str, density: float, balance
+) -> dict:
+    """The mpg of a power-split car at the controller's bound (:func:`hevlib.bound.fuel_bound`) and under ECMS
+    (:func:`hevlib.bound.ecms_fuel`, SOC feedback ``gain``, charge-balanced as ``balance`` = (tolerance, most
+    runs)), both from the SOC of the rule base's charge-balanced run, on the engine's hot map, the FTP bag by bag
+    (``predicted_bound_mpg``, ``predicted_ecms_mpg`` ...); nothing for a controller that finds no admissible control
+    or (ECMS) does not balance."""
+    ctl = controls(vehicle, cycle, grid)
+    runs = {}
     try:
-        b = fuel_bound(vehicle, cycle, grid, soc0)
+        runs["bound"] = fuel_bound(vehicle, cycle, grid, soc0, ctl=ctl)
     except Infeasible:
-        return {}
-    if category == "FTP":
-        trace = bound_trace(b, cycle).assign(**{col: np.nan for _, col in GAS_TAILPIPE})  # fuel only: no tailpipe
-        return _ftp_figures(bag_figures(trace, density, FTP_BAGS_S), "predicted_bound_mpg")
-    return {"predicted_bound_mpg": L_PER_100KM_MPG / b.responses["fc_soc_corrected"]}
+        pass
+    try:
+        e = ecms_fuel(vehicle, cycle, grid, gain, soc0, tolerance=balance[0], max_runs=balance[1], ctl=ctl)
+        if e.balanced:
+            runs["ecms"] = e.run
+    except Infeasible:
+        pass
+    out = {}
+    for name, b in runs.items():
+        prefix = f"predicted_{name}_mpg"
+        if category == "FTP":
+            trace = bound_trace(b, cycle).assign(**{col: np.nan for _, col in GAS_TAILPIPE})  # fuel only
+            out |= _ftp_figures(bag_figures(trace, density, FTP_BAGS_S), prefix)
+        else:
+            out[prefix] = L_PER_100KM_MPG / b.responses["fc_soc_corrected"]
+    return out
 
 
 def predict_car(raw: dict, car: epa.Car, categories: list[str], cycles: dict) -> dict[str, dict]:
@@ -246,7 +273,9 @@ def predict_car(raw: dict, car: epa.Car, categories: list[str], cycles: dict) ->
             else:
                 res["predicted_mpg"] = L_PER_100KM_MPG / fc if fc > 0 else float("nan")
             if kind == "prius" and res["cycle_met"] and res["charge_balanced"]:
-                res |= _bound_figures(vehicle, cycle, grid, soc, cat, density)
+                balance = (params.sim.charge_balance_tolerance, params.sim.charge_balance_max_runs)
+                gain = params.bound.ecms_soc_gain
+                res |= _controller_figures(vehicle, cycle, grid, gain, soc, cat, density, balance)
             out[cat] = res
     return out
 
@@ -341,14 +370,14 @@ def results_table(cases: pd.DataFrame, predicted: pd.DataFrame, fastsim: pd.Data
         fs = fastsim[keep].rename(columns={"status": "fastsim_status"})
         out = out.merge(fs, on="case_id", how="left", validate="one_to_one")
         out.loc[out["fastsim_status"] != "ok", ["fastsim_mpg"]] = np.nan
-    out.loc[out["status"] != "ok", [c for c in out.columns if c.startswith(("predicted_mpg", "predicted_bound"))]] = (
-        np.nan
-    )
-    if "predicted_bound_mpg" in out:
-        # the simulator with every hybrid at the controller's bound (conventional cars as predicted): the twins
-        out["predicted_at_bound_mpg"] = out["predicted_bound_mpg"].where(
-            out["powertrain"] == "power_split", out["predicted_mpg"]
-        )
+    prefixes = ("predicted_mpg", *(f"predicted_{name}" for name in CONTROLLERS))
+    out.loc[out["status"] != "ok", [c for c in out.columns if c.startswith(prefixes)]] = np.nan
+    for name in CONTROLLERS:
+        if f"predicted_{name}_mpg" in out:
+            # the simulator with every hybrid under that controller (conventional cars as predicted): the twins
+            out[f"predicted_at_{name}_mpg"] = out[f"predicted_{name}_mpg"].where(
+                out["powertrain"] == "power_split", out["predicted_mpg"]
+            )
     return out
 
 
@@ -444,10 +473,11 @@ def summarise(results: pd.DataFrame, excluded: pd.DataFrame) -> dict:
     both = results[np.isfinite(results["predicted_mpg"]) & (np.isfinite(results["fastsim_mpg"]) if has_fs else True)]
     ours = error_table(both, "predicted_mpg")
     peer = error_table(both, "fastsim_mpg") if has_fs else pd.DataFrame()
-    has_bound = "predicted_at_bound_mpg" in results
-    at_bound = error_table(both[both["powertrain"] == "power_split"], "predicted_bound_mpg") if has_bound else None
+    hybrids = both[both["powertrain"] == "power_split"]
+    others = [name for name in CONTROLLERS if f"predicted_at_{name}_mpg" in results]
+    under = {name: error_table(hybrids, f"predicted_{name}_mpg") for name in others}
     twin_cols = ("predicted_mpg", "fastsim_mpg") if has_fs else ("predicted_mpg",)
-    twins = twin_pairs(both, TWINS, twin_cols + (("predicted_at_bound_mpg",) if has_bound else ()))
+    twins = twin_pairs(both, TWINS, twin_cols + tuple(f"predicted_at_{name}_mpg" for name in others))
     bars = []
     for name, table in (("hev-sizing", ours), ("FASTSim 2.1.5", peer)):
         for _, r in table.iterrows():
@@ -459,7 +489,7 @@ def summarise(results: pd.DataFrame, excluded: pd.DataFrame) -> dict:
                 ok = ok and r["within_10_pct"] >= BARS["conventional_within_10"]
             bars.append({"who": name, "powertrain": r["powertrain"], "category": r["category"], "met": bool(ok)})
     twin_err = {}
-    for col in ("predicted", "fastsim", "predicted_at_bound"):
+    for col in ("predicted", "fastsim", *(f"predicted_at_{name}" for name in CONTROLLERS)):
         if not twins.empty and f"saving_{col}_pct" in twins:
             twin_err[col] = float(np.nanmedian(np.abs(twins[f"saving_{col}_pct"] - twins["saving_measured_pct"])))
     headline = {}
@@ -493,9 +523,9 @@ def summarise(results: pd.DataFrame, excluded: pd.DataFrame) -> dict:
             },
         },
         "errors": {"hev_sizing": _records(ours), "fastsim": _records(peer)},
-        # the power-split hybrids with the rule base swapped for the controller's bound (hevlib.bound): how much of
-        # their error is the controller's
-        "errors_at_bound": _records(at_bound) if at_bound is not None else [],
+        # the power-split hybrids with the rule base swapped for the controller's bound and for ECMS (hevlib.bound):
+        # how much of their error is the controller's
+        "errors_under_controllers": {name: _records(table) for name, table in under.items()},
         "ftp_bags": {
             "hev_sizing": _records(bag_errors(both, "predicted")),
             "fastsim": _records(bag_errors(both, "fastsim")) if has_fs else [],
@@ -540,21 +570,24 @@ def summary_markdown(summary: dict) -> str:
             f"| {r['powertrain']} | {r['category']} | {r['tests']} | {r['median_error_pct']:+.1f} % | "
             f"{r['median_abs_error_pct']:.1f} % | {100 * r['within_10_pct']:.0f} % | {fs} |"
         )
-    if summary.get("errors_at_bound"):
+    under = summary.get("errors_under_controllers", {})
+    if under:
         lines += [
             "",
-            "**Power-split hybrids at the controller's bound** (`hevlib.bound`: the rule base swapped for the least "
-            "fuel any controller could burn on the same hardware, on the engine's hot map, so the FTP's cold start "
-            "is not in it; the rest of the model as above), against the same measurements:",
+            "**Power-split hybrids under other controllers**, the rule base swapped for "
+            + "; for ".join(CONTROLLERS[name] for name in under)
+            + ". Both on the engine's hot map, so the FTP's cold start is not in them; the rest of the model as "
+            "above; against the same measurements:",
             "",
-            "| test | tests | median error | median \\|error\\| | within 10 % |",
-            "|---|---|---|---|---|",
+            "| controller | test | tests | median error | median \\|error\\| | within 10 % |",
+            "|---|---|---|---|---|---|",
         ]
-        for r in summary["errors_at_bound"]:
-            lines.append(
-                f"| {r['category']} | {r['tests']} | {r['median_error_pct']:+.1f} % | "
-                f"{r['median_abs_error_pct']:.1f} % | {100 * r['within_10_pct']:.0f} % |"
-            )
+        for name, rows in under.items():
+            for r in rows:
+                lines.append(
+                    f"| {name} | {r['category']} | {r['tests']} | {r['median_error_pct']:+.1f} % | "
+                    f"{r['median_abs_error_pct']:.1f} % | {100 * r['within_10_pct']:.0f} % |"
+                )
     lines += ["", "**FTP bag by bag**, median |error|:", ""]
     for who, rows in summary["ftp_bags"].items():
         for r in rows:
@@ -575,8 +608,9 @@ def summary_markdown(summary: dict) -> str:
         "",
     ]
     lines += [
-        "| pair | test | measured | hev-sizing | FASTSim | hev-sizing, hybrid at the bound (no cold start) |",
-        "|---|---|---|---|---|---|",
+        "| pair | test | measured | hev-sizing | FASTSim | hev-sizing, hybrid under ECMS (no cold start) "
+        "| hev-sizing, hybrid at the bound (no cold start) |",
+        "|---|---|---|---|---|---|---|",
     ]
 
     def pct(x):
@@ -585,7 +619,8 @@ def summary_markdown(summary: dict) -> str:
     for r in summary["twins"]:
         lines.append(
             f"| {r['pair']} | {r['category']} | {r['saving_measured_pct']:.1f} % | {r['saving_predicted_pct']:.1f} % | "
-            f"{pct(r.get('saving_fastsim_pct'))} | {pct(r.get('saving_predicted_at_bound_pct'))} |"
+            f"{pct(r.get('saving_fastsim_pct'))} | {pct(r.get('saving_predicted_at_ecms_pct'))} "
+            f"| {pct(r.get('saving_predicted_at_bound_pct'))} |"
         )
     tw = summary["twin_median_abs_points"]
     lines += ["", "Median |predicted - measured| saving: " + ", ".join(f"{k} {v:.1f} points" for k, v in tw.items())]

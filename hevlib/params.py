@@ -623,11 +623,14 @@ class BoundParams(_Strict):
     (:mod:`hevlib.bound`) for the picks and the stock Prius, against the rule base. Its resolution: the SOC grid's
     step and the engine-on candidates per step (a grid of speeds across the engine's window, of torques up to
     what the engine and the generator take); the cycles it is computed on (cycles the picks drive: a bound needs a
-    trace that the design meets)."""
+    trace that the design meets); and the ECMS controller run beside it on the same candidates
+    (:func:`hevlib.bound.ecms_fuel`): its equivalence factor's SOC feedback, per unit of SOC below the control
+    file's target."""
 
     soc_step: Annotated[float, Field(gt=0.0, le=0.01)] = 0.0005
     n_speed: Annotated[int, Field(ge=2, le=200)] = 24
     n_torque: Annotated[int, Field(ge=2, le=200)] = 24
+    ecms_soc_gain: Annotated[float, Field(ge=0.0, le=1000.0)] = 20.0
     cycles: list[Annotated[str, Field(pattern=r"^[A-Za-z0-9_]+$")]] = ["ftp", "hwfet"]
 
     @model_validator(mode="after")

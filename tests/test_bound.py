@@ -1,6 +1,7 @@
 """The charge-sustaining fuel bound (hevlib.bound, ``hev bound``): below the rule base on the same hardware,
 charge-sustaining, never better than the engine's best efficiency allows, costlier with engine starts than
-without, converged in its grid; the step's candidates reduced to their fuel-battery front; the stage end to end."""
+without, converged in its grid; the step's candidates reduced to their fuel-battery front; ECMS on the same
+candidates between the bound and the rule base, holding charge by its SOC feedback; the stage end to end."""
 
 from __future__ import annotations
 
@@ -12,7 +13,20 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from hevlib.bound import BoundGrid, Infeasible, _admitted, _front, fuel_bound, gear_bound
+from hevlib.bound import (
+    TRACE_COLUMNS,
+    BoundGrid,
+    Ecms,
+    Infeasible,
+    _admitted,
+    _forward,
+    _front,
+    controls,
+    ecms_fuel,
+    equivalence_factor,
+    fuel_bound,
+    gear_bound,
+)
 from hevlib.controller_gap import controller_gap
 from hevlib.design import DESIGN_VARS
 from hevlib.params import ParamsError, load_params
@@ -87,6 +101,47 @@ def test_the_bound_converges_in_its_soc_grid(prius_hwfet):
     assert half.responses["fc_soc_corrected"] == pytest.approx(b.responses["fc_soc_corrected"], rel=0.005)
 
 
+def test_ecms_holds_charge_between_the_bound_and_the_rule_base(prius_hwfet):
+    car, cyc, last, soc0, b = prius_hwfet
+    rule = responses(last, cyc, car.library).iloc[0]
+    e = ecms_fuel(car, cyc, COARSE, 20.0, soc0, tolerance=0.01, max_runs=10)
+    assert e.balanced and abs(e.run.out[L.O_E_BATT]) <= 0.01 * e.run.out[L.O_E_FUEL]  # SAE J1711's 1 %
+    fc = e.run.responses["fc_soc_corrected"]
+    # a causal controller on the bound's candidates: never below the bound, well below the rule base on HWFET
+    assert b.responses["fc_soc_corrected"] <= fc < 0.97 * rule["fc_soc_corrected"]
+    assert fc < 1.05 * b.responses["fc_soc_corrected"]
+    assert e.run.out[L.O_DIST_M] == pytest.approx(cyc.distance_m, rel=1e-9)
+    assert e.settings.s0 == pytest.approx(equivalence_factor(car)) and e.settings.soc_target == 0.6  # PTC_PRIUS_JPN
+
+
+def test_the_equivalence_factor_is_the_reciprocal_of_the_engines_best_efficiency(sim, lib):
+    assert equivalence_factor(sim.vehicle(None, "prius")) == pytest.approx(
+        1 / lib.engine_hybrid.max_efficiency(), rel=0.02
+    )
+
+
+def _ecms_end_soc(car, cyc, ctl, soc0: float, s0: float, gain: float) -> float:
+    sc = car.kernel.sc
+    step = (sc.soc_max - sc.soc_min) / round((sc.soc_max - sc.soc_min) / COARSE.soc_step)
+    record = np.zeros((cyc.n_steps, len(TRACE_COLUMNS)))
+    o = _forward(
+        car.kernel, 0, ctl, soc0, np.zeros((1, 2, 1)), sc.soc_min, step, Ecms(s0, gain, 0.6), np.zeros(L.N_O), record
+    )
+    assert np.isfinite(o[L.O_SOC_END])
+    return float(o[L.O_SOC_END])
+
+
+def test_ecms_charges_more_when_battery_energy_is_dearer_and_its_feedback_pulls_to_the_target(prius_hwfet):
+    car, cyc, _, _, _ = prius_hwfet
+    ctl = controls(car, cyc, COARSE)
+    s0 = equivalence_factor(car)
+    # a dearer battery (a higher factor at the target) leaves the pack fuller
+    assert _ecms_end_soc(car, cyc, ctl, 0.6, 1.2 * s0, 20.0) > _ecms_end_soc(car, cyc, ctl, 0.6, 0.8 * s0, 20.0) + 0.01
+    # feedback: below the target it charges, above it discharges
+    assert _ecms_end_soc(car, cyc, ctl, 0.5, s0, 40.0) > 0.5
+    assert _ecms_end_soc(car, cyc, ctl, 0.72, s0, 40.0) < 0.72
+
+
 def test_a_bound_is_for_one_power_split_car(sim, cycles):
     with pytest.raises(ValueError, match="one power-split vehicle"):
         fuel_bound(sim.vehicle(None, "conventional"), cycles["hwfet"], COARSE)
@@ -159,6 +214,13 @@ def test_hev_bound_writes_the_gap_of_each_pick_and_the_prius(stage_dir, root):
     assert rows[("prius", "us06")]["bound_fc"] is None  # no bound where the rule base leaves the trace
     c = report["by_cycle"]["hwfet"]
     assert c["recommended_gap_pct"] == pytest.approx(hw["gap_pct"]) and c["saving_bound_pct"] > c["saving_rule_pct"]
+    assert hw["bound_fc"] <= hw["ecms_fc"] < hw["rule_fc_hot"] and hw["ecms_gap_pct"] == pytest.approx(
+        100 * (hw["ecms_fc"] / hw["bound_fc"] - 1)
+    )
+    assert c["saving_rule_pct"] < c["saving_ecms_pct"] <= c["saving_bound_pct"]
+    assert (
+        c["recommended_ecms_gap_pct"] == pytest.approx(hw["ecms_gap_pct"]) and report["settings"]["ecms_soc_gain"] > 0
+    )
     assert c["saving_both_bounds_pct"] == pytest.approx(100 * (1 - hw["bound_fc"] / conventional["bound_fc"])) and c[
         "saving_rule_pct"
     ] == pytest.approx(100 * (1 - hw["rule_fc_hot"] / conventional["rule_fc_hot"]))

@@ -132,10 +132,10 @@ def test_a_real_car_drives_its_certification_tests(selection, raw, cycles):
     assert fleet.predict_car(raw, heavier, ["HWY"], cycles)["HWY"]["predicted_mpg"] < hwy["predicted_mpg"]
 
 
-def test_a_real_hybrid_at_the_controllers_bound(selection, raw, cycles):
+def test_a_real_hybrid_at_the_controllers_bound_and_under_ecms(selection, raw, cycles):
     """The 2022 Prius on HWFET and FTP: at the controller's bound (hevlib.bound) it goes further on a gallon than
-    under the rule base, but not twice as far; a conventional car has no bound (its own prediction in the twins'
-    column)."""
+    under the rule base, but not twice as far, and under ECMS on the same candidates between the two; a conventional
+    car has no bound (its own prediction in the twins' column)."""
     c = selection.cases
     row = c[(c[epa.MODEL].str.upper() == "PRIUS") & (c[epa.CATEGORY] == "HWY")].iloc[0]
     got = fleet.predict_car(raw, fleet.car_of(row, epa.POWER_SPLIT), ["HWY", "FTP"], cycles)
@@ -145,6 +145,9 @@ def test_a_real_hybrid_at_the_controllers_bound(selection, raw, cycles):
     # the FTP at the bound bag by bag, its composite between its bags (EPA's weighting, as the rule base's)
     bags = [ftp[f"predicted_bound_mpg_bag{k}"] for k in (1, 2, 3)]
     assert min(bags) < ftp["predicted_bound_mpg"] < max(bags) and ftp["predicted_bound_mpg"] > ftp["predicted_mpg"]
+    for got_cat in (hwy, ftp):
+        assert got_cat["predicted_mpg"] < got_cat["predicted_ecms_mpg"] <= got_cat["predicted_bound_mpg"]
+    assert min(ftp[f"predicted_ecms_mpg_bag{k}"] for k in (1, 2, 3)) < ftp["predicted_ecms_mpg"]
     corolla = c[(c[epa.MODEL].str.upper() == "COROLLA") & (c[epa.CATEGORY] == "HWY")].iloc[0]
     predicted = pd.DataFrame(
         [
@@ -154,6 +157,7 @@ def test_a_real_hybrid_at_the_controllers_bound(selection, raw, cycles):
     )
     results = fleet.results_table(pd.DataFrame([row, corolla]), predicted, None)
     assert results["predicted_at_bound_mpg"].tolist() == [hwy["predicted_bound_mpg"], 40.0]
+    assert results["predicted_at_ecms_mpg"].tolist() == [hwy["predicted_ecms_mpg"], 40.0]
 
 
 def test_the_fleet_command_refuses_an_unknown_action_in_one_line():

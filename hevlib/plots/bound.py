@@ -9,28 +9,21 @@ from hevlib.plots import plt
 
 
 def gap_figure(table: pd.DataFrame, recommended: str) -> plt.Figure:
-    """One panel per cycle: each vehicle's fuel under its controller (hot map, SOC-corrected) and at its bound, the
-    gap written beside it ("no bound" where there is none); the recommended design named."""
+    """One panel per cycle: each vehicle's fuel under its controller (hot map, SOC-corrected), under ECMS and at its
+    bound, the rule base's gap written beside it ("no bound" where there is none); the recommended design named."""
     cycles = list(dict.fromkeys(table["cycle"]))
     n = table["vehicle"].nunique()
-    fig, axes = plt.subplots(1, len(cycles), figsize=(5.6 * len(cycles), 0.32 * n + 1.6), squeeze=False)
+    fig, axes = plt.subplots(1, len(cycles), figsize=(5.6 * len(cycles), 0.42 * n + 1.8), squeeze=False)
+    bars = (
+        ("rule_fc_hot", 0.27, "tab:orange", "its controller: the rule base (Table 2); gears: the shift logic"),
+        ("ecms_fc", 0.0, "tab:green", "ECMS on the bound's candidates (power-split cars)"),
+        ("bound_fc", -0.27, "tab:blue", "its bound: DP over SOC; gears: the best on each step"),
+    )
     for ax, cname in zip(axes[0], cycles, strict=True):
         rows = table[table["cycle"] == cname].reset_index(drop=True)
         y = np.arange(len(rows))
-        ax.barh(
-            y + 0.2,
-            rows["rule_fc_hot"],
-            height=0.38,
-            color="tab:orange",
-            label="its controller: the rule base (Table 2); gears: the shift logic",
-        )
-        ax.barh(
-            y - 0.2,
-            rows["bound_fc"].fillna(0.0),
-            height=0.38,
-            color="tab:blue",
-            label="its bound: DP over SOC; gears: the best on each step",
-        )
+        for col, dy, color, label in bars:
+            ax.barh(y + dy, rows[col].fillna(0.0), height=0.26, color=color, label=label)
         top = float(np.nanmax(rows["rule_fc_hot"]))
         for i, r in rows.iterrows():
             text = f"{r['gap_pct']:+.1f} %" if np.isfinite(r["gap_pct"]) else "no bound"
