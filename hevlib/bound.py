@@ -344,7 +344,7 @@ def _best(
 
 
 class Ecms(NamedTuple):
-    """An equivalent-consumption minimisation (ECMS) controller's settings (:func:`ecms_run`): each step it picks the
+    """An equivalent-consumption minimisation (ECMS) controller's settings (:func:`ecms_fuel`): each step it picks the
     control of least ``fuel + s (battery energy) / LHV``, the equivalence factor ``s = s0 + gain (soc_target - soc)``
     (the adaptive ECMS of Onori, Serrao and Rizzoni, *Hybrid Electric Vehicles: Energy Management Strategies*,
     Springer 2016, ch. 5: SOC feedback that holds charge)."""

@@ -105,7 +105,8 @@ def controller_gap(
     cycles: Mapping[str, Cycle],
     grid: BoundGrid,
     progress: Callable[[int, int], None] | None = None,
-    ecms_gain: float = 20.0,
+    *,
+    ecms_gain: float,
 ) -> pd.DataFrame:
     """For each vehicle (label -> a :class:`hevlib.sim.vehicles.Vehicle` of one design) and cycle: a power-split
     car's rule base, charge-balanced (``sim.charge_balance_*`` as every stage balances), its bound and ECMS (SOC
@@ -204,7 +205,7 @@ LEAVES_OUT: tuple[str, ...] = (
 
 
 def gap_report(
-    table: pd.DataFrame, grid: BoundGrid, recommended: str, convergence: Mapping[str, float], ecms_gain: float = 20.0
+    table: pd.DataFrame, grid: BoundGrid, recommended: str, convergence: Mapping[str, float], *, ecms_gain: float
 ) -> dict:
     """The controller's gap as ``reports/bound.json``: the settings, what the bound leaves out, every row of
     :func:`controller_gap`, per cycle the spread of the gap over the picks and the gaps of the recommended design,
@@ -354,14 +355,15 @@ def bound_study(
     cycles: Mapping[str, Cycle],
     grid: BoundGrid,
     progress: Callable[[int, int], None] | None = None,
-    ecms_gain: float = 20.0,
+    *,
+    ecms_gain: float,
 ) -> BoundStudy:
     """The controller's gap of every design (``designs``: id -> its row of the seven variables), the stock Prius
     and the conventional car on ``cycles`` (:func:`controller_gap`, ECMS with SOC feedback ``ecms_gain``), and the
     grid convergence of the recommended design's bound on the first cycle."""
     vehicles = {"conventional": sim.vehicle(None, "conventional"), "prius": sim.vehicle(None, "prius")}
     vehicles.update({k: sim.vehicle(np.asarray(x, float).reshape(1, -1), "hybrid") for k, x in designs.items()})
-    table = controller_gap(vehicles, cycles, grid, progress, ecms_gain)
+    table = controller_gap(vehicles, cycles, grid, progress, ecms_gain=ecms_gain)
     first = next(iter(cycles))
     row = table[(table["vehicle"] == recommended) & (table["cycle"] == first)].iloc[0]
     if not np.isfinite(row["bound_fc"]):
@@ -369,5 +371,5 @@ def bound_study(
     soc0 = float(row["soc_init"])
     rec_bound, convergence = grid_convergence(vehicles[recommended], cycles[first], grid, soc0)
     rule_trace = sim.trace(np.asarray(designs[recommended], float).reshape(1, -1), cycles[first], soc_init=soc0)
-    report = gap_report(table, grid, recommended, convergence, ecms_gain)
+    report = gap_report(table, grid, recommended, convergence, ecms_gain=ecms_gain)
     return BoundStudy(report=report, table=table, recommended_bound=rec_bound, recommended_rule_trace=rule_trace)

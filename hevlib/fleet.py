@@ -14,6 +14,7 @@ fitted to the tests: every figure below is a prediction.
 
 from __future__ import annotations
 
+from contextlib import suppress
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -215,16 +216,12 @@ def _controller_figures(
     or (ECMS) does not balance."""
     ctl = controls(vehicle, cycle, grid)
     runs = {}
-    try:
+    with suppress(Infeasible):
         runs["bound"] = fuel_bound(vehicle, cycle, grid, soc0, ctl=ctl)
-    except Infeasible:
-        pass
-    try:
+    with suppress(Infeasible):
         e = ecms_fuel(vehicle, cycle, grid, gain, soc0, tolerance=balance[0], max_runs=balance[1], ctl=ctl)
         if e.balanced:
             runs["ecms"] = e.run
-    except Infeasible:
-        pass
     out = {}
     for name, b in runs.items():
         prefix = f"predicted_{name}_mpg"

@@ -44,7 +44,7 @@ def bound(
     cycles = {name: cycle_named(name) for name in p.bound.cycles}
     grid = BoundGrid.from_params(p.bound)
     with progress_callback("bound") as progress:
-        study = bound_study(simulator(p), designs, recommended, cycles, grid, progress, p.bound.ecms_soc_gain)
+        study = bound_study(simulator(p), designs, recommended, cycles, grid, progress, ecms_gain=p.bound.ecms_soc_gain)
     first = p.bound.cycles[0]
     plots = out_dir / "plots" / "bound"
     plots.mkdir(parents=True, exist_ok=True)

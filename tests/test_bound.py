@@ -124,9 +124,8 @@ def _ecms_end_soc(car, cyc, ctl, soc0: float, s0: float, gain: float) -> float:
     sc = car.kernel.sc
     step = (sc.soc_max - sc.soc_min) / round((sc.soc_max - sc.soc_min) / COARSE.soc_step)
     record = np.zeros((cyc.n_steps, len(TRACE_COLUMNS)))
-    o = _forward(
-        car.kernel, 0, ctl, soc0, np.zeros((1, 2, 1)), sc.soc_min, step, Ecms(s0, gain, 0.6), np.zeros(L.N_O), record
-    )
+    ecms = Ecms(s0=s0, gain=gain, soc_target=0.6)
+    o = _forward(car.kernel, 0, ctl, soc0, np.zeros((1, 2, 1)), sc.soc_min, step, ecms, np.zeros(L.N_O), record)
     assert np.isfinite(o[L.O_SOC_END])
     return float(o[L.O_SOC_END])
 
@@ -166,7 +165,7 @@ def test_a_trace_no_control_can_drive_is_said(sim, cycles):
     # admissible control on some step, and the gap table says so instead of a figure
     with pytest.raises(Infeasible, match="no admissible control on step"):
         fuel_bound(sim.vehicle(None, "prius"), cycles["us06"], COARSE)
-    table = controller_gap({"prius": sim.vehicle(None, "prius")}, {"us06": cycles["us06"]}, COARSE)
+    table = controller_gap({"prius": sim.vehicle(None, "prius")}, {"us06": cycles["us06"]}, COARSE, ecms_gain=20.0)
     assert np.isnan(table["bound_fc"].iloc[0]) and "does not meet the trace" in table["note"].iloc[0]
 
 
