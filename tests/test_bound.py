@@ -174,6 +174,7 @@ def test_a_trace_no_control_can_drive_is_said(sim, cycles):
     [
         ({"soc_step": 0.0}, "bound.soc_step"),
         ({"n_speed": 1}, "bound.n_speed"),
+        ({"ecms_soc_gain": -1.0}, "bound.ecms_soc_gain"),
         ({"cycles": ["wltp"]}, "bound.cycles: 'wltp' is not one of cycles.cycles"),
         ({"grid": 3}, "bound.grid: unknown key"),
     ],
