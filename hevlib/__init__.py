@@ -24,6 +24,7 @@ _KERNEL_SOURCES = (
     "scaling.py",
     "sim/control.py",
     "sim/drive.py",
+    "sim/ecms.py",
     "sim/performance.py",
     "sim/powertrain",
 )

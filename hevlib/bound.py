@@ -35,7 +35,7 @@ J1711 SOC correction of :func:`hevlib.sim.simulator.responses` on the bound's ow
 compare on one yardstick: each step the control of least fuel plus the battery's energy (its charge at the
 open-circuit voltage) at the equivalence factor ``s = s0 + gain (soc_target - soc)`` (adaptive ECMS with SOC
 feedback, Onori, Serrao and Rizzoni 2016), ``s0`` the reciprocal of the engine's best efficiency on its map
-(:func:`equivalence_factor`), the target the control file's; in the dynamic programme's forward pass
+(:func:`hevlib.sim.ecms.equivalence_factor`), the target the control file's; in the dynamic programme's forward pass
 (:func:`_forward`) with a cost-to-go linear in SOC in place of the programme's. It knows nothing of the trace ahead:
 what it burns above the bound is what foresight is worth (e.g. an engine kept running through a short stop instead
 of a costly restart), what the rule base burns above ECMS what its rules leave.
@@ -616,21 +616,6 @@ def fuel_bound(
     return _run(vehicle, cycle, ctl, o, record, soc0)
 
 
-def equivalence_factor(vehicle) -> float:
-    """ECMS's equivalence factor at the target SOC for ``vehicle``'s engine: the reciprocal of its best efficiency
-    on its map (the fuel energy a unit of battery energy replaces if the engine made it at its best point, no
-    electrical loss counted); its component file's, nothing fitted."""
-    E, lhv = vehicle.kernel.E, vehicle.kernel.c.lhv_j_per_g
-    best = 0.0
-    for p_w, w, t in zip(E.line_p[1:], E.line_w[1:], E.line_t[1:], strict=True):
-        fuel = rates(float(w), float(t), 1.0, E)[0]
-        if fuel > 0.0:
-            best = max(best, float(p_w) / (fuel * lhv))
-    if best <= 0.0:
-        raise ValueError("ecms: the engine's map has no point of positive efficiency")
-    return 1.0 / best
-
-
 class EcmsRun(NamedTuple):
     """ECMS on a cycle (:func:`ecms_fuel`): its last run (a :class:`Bound` of the same fields: responses, trace
     ...), how many runs the charge balance took, whether it balanced, and the controller's settings."""
@@ -653,13 +638,15 @@ def ecms_fuel(
     ctl: StepControls | None = None,
 ) -> EcmsRun:
     """The one power-split vehicle of ``vehicle`` on ``cycle`` under ECMS (:class:`Ecms`: the equivalence factor
-    :func:`equivalence_factor` at the control file's target SOC, SOC feedback of ``gain``), on the bound's model
-    and candidates (:func:`step_controls`: the hot map, the same limits, starts and booking, so the two compare on
-    one yardstick), charge-balanced as the simulator balances (SAE J1711): from ``soc_init`` (else the vehicle's),
-    rerun from the end SOC while the net battery energy exceeds ``tolerance`` of the fuel energy, at most
-    ``max_runs`` runs; ``ctl``: the vehicle's :func:`controls` on ``grid`` where already made."""
+    :func:`hevlib.sim.ecms.equivalence_factor` at the control file's target SOC, as the kernel's ``pc.ecms_s0``
+    holds it, SOC feedback of ``gain``), on the bound's model and candidates (:func:`step_controls`: the hot map,
+    the same limits, starts and booking, so the two compare on one yardstick), charge-balanced as the simulator
+    balances (SAE J1711): from ``soc_init`` (else the vehicle's), rerun from the end SOC while the net battery
+    energy exceeds ``tolerance`` of the fuel energy, at most ``max_runs`` runs; ``ctl``: the vehicle's
+    :func:`controls` on ``grid`` where already made."""
     ctl = controls(vehicle, cycle, grid) if ctl is None else ctl
-    settings = Ecms(s0=equivalence_factor(vehicle), gain=float(gain), soc_target=float(vehicle.kernel.pc.soc_target))
+    pc = vehicle.kernel.pc
+    settings = Ecms(s0=float(pc.ecms_s0), gain=float(gain), soc_target=float(pc.soc_target))
     soc0 = float(vehicle.kernel.rows[0, R_SOC0]) if soc_init is None else float(soc_init)
     sc = vehicle.kernel.sc
     step = (sc.soc_max - sc.soc_min) / (int(round((sc.soc_max - sc.soc_min) / grid.soc_step)))

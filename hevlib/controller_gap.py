@@ -27,9 +27,15 @@ GAP_COLUMNS: dict[str, str] = {
     "gap_pct": "%: how much more the rule base burns than the bound (rule_fc_hot / bound_fc - 1)",
     "ecms_fc": "L/100 km: ECMS on the bound's model and candidates, charge-balanced (J1711), SOC-corrected",
     "ecms_gap_pct": "%: how much more ECMS burns than the bound (ecms_fc / bound_fc - 1)",
+    "ecms_drive_fc_charge_balanced": "L/100 km: ECMS in the drive step (pms.strategy: ecms, hevlib/sim/ecms.py), "
+    "charge-balanced as the rule base",
+    "ecms_drive_fc_hot": "L/100 km: that run SOC-corrected on the hot map (its cold start's surplus out)",
+    "ecms_drive_gap_pct": "%: how much more ECMS in the drive step burns than the bound "
+    "(ecms_drive_fc_hot / bound_fc - 1)",
     "rule_starts": "engine starts of the rule base's balanced run",
     "bound_starts": "engine starts on the bound's run",
     "ecms_starts": "engine starts on ECMS's balanced run",
+    "ecms_drive_starts": "engine starts of the drive step's ECMS's balanced run",
     "soc_init": "the SOC both start from: the rule base's charge-balanced start",
     "bound_soc_end": "the bound's final SOC",
     "note": "why there is no bound, where there is none",
@@ -59,7 +65,7 @@ def _conventional_row(label: str, vehicle, cname: str, cycle: Cycle) -> dict:
         "soc_init": np.nan,
         "bound_soc_end": np.nan,
         "note": "",
-    }
+    } | dict.fromkeys(_DRIVE_ECMS, np.nan)
     if not bool(r["cycle_met"]):
         row["note"] = "does not meet the trace under its shift logic"
         return row
@@ -71,6 +77,45 @@ def _conventional_row(label: str, vehicle, cname: str, cycle: Cycle) -> dict:
     row["bound_fc"] = float(b["fc"])
     row["gap_pct"] = 100.0 * (row["rule_fc_hot"] / row["bound_fc"] - 1.0)
     return row
+
+
+#: The columns of the drive step's ECMS (a power split's rows only).
+_DRIVE_ECMS = ("ecms_drive_fc_charge_balanced", "ecms_drive_fc_hot", "ecms_drive_gap_pct", "ecms_drive_starts")
+
+
+class BalancedRun(NamedTuple):
+    """A power-split vehicle's charge-balanced run under one of the simulator's controllers (:func:`balanced_run`)."""
+
+    fc_charge_balanced: float  # L/100 km
+    cold_share: float  # of the fuel, the cold start's surplus
+    fc_hot: float  # SOC-corrected, the surplus out, L/100 km
+    starts: float
+    soc_init: float  # the balanced run's start
+    met: bool
+    balanced: bool
+
+
+def balanced_run(vehicle, cycle: Cycle) -> BalancedRun:
+    """``vehicle`` (one power-split design) on ``cycle`` under its own controller, charge-balanced as every stage
+    balances (``sim.charge_balance_*``), with its fuel on the hot map (the cold start's surplus taken out)."""
+    from hevlib.sim.simulator import charge_balance, responses, simulate
+
+    sim = vehicle.library.params.sim
+    first = simulate(vehicle, cycle)
+    last, cb = charge_balance(
+        vehicle, cycle, first, tolerance=sim.charge_balance_tolerance, max_runs=sim.charge_balance_max_runs
+    )
+    r = responses(last, cycle, vehicle.library).iloc[0]
+    cold = cold_share(last.out[0])
+    return BalancedRun(
+        fc_charge_balanced=float(cb["fc_charge_balanced"].iloc[0]),
+        cold_share=cold,
+        fc_hot=float(r["fc_soc_corrected"] - cold * r["fc"]),
+        starts=float(r["n_engine_starts"]),
+        soc_init=float(cb["soc_init_charge_balanced"].iloc[0]),
+        met=bool(r["cycle_met"]),
+        balanced=bool(cb["charge_balanced"].iloc[0]),
+    )
 
 
 def _ecms_figures(vehicle, cycle: Cycle, grid: BoundGrid, gain: float, soc0: float, ctl, bound_fc: float) -> dict:
@@ -117,8 +162,6 @@ def controller_gap(
     A vehicle that does not meet a cycle's trace under the rule base gets no bound there (the bound follows the
     trace exactly: a controller's fuel on a trace it does not drive is not comparable); nor one whose trace the
     bound finds no admissible control for on its grid (said in ``note``)."""
-    from hevlib.sim.simulator import charge_balance, responses, simulate
-
     rows = []
     total, done = len(vehicles) * len(cycles), 0
     for cname, cycle in cycles.items():
@@ -129,34 +172,37 @@ def controller_gap(
                 if progress is not None:
                     progress(done, total)
                 continue
-            sim = vehicle.library.params.sim
-            first = simulate(vehicle, cycle)
-            last, cb = charge_balance(
-                vehicle, cycle, first, tolerance=sim.charge_balance_tolerance, max_runs=sim.charge_balance_max_runs
-            )
-            r = responses(last, cycle, vehicle.library).iloc[0]
-            soc0 = float(cb["soc_init_charge_balanced"].iloc[0])
-            cold = cold_share(last.out[0])
+            rule = balanced_run(vehicle.with_strategy("fuzzy"), cycle)
+            drive = balanced_run(vehicle.with_strategy("ecms"), cycle)
+            soc0 = rule.soc_init
             row = {
                 "vehicle": label,
                 "cycle": cname,
-                "rule_fc_charge_balanced": float(cb["fc_charge_balanced"].iloc[0]),
-                "rule_cold_pct": 100.0 * cold,
-                "rule_fc_hot": float(r["fc_soc_corrected"] - cold * r["fc"]),
+                "rule_fc_charge_balanced": rule.fc_charge_balanced,
+                "rule_cold_pct": 100.0 * rule.cold_share,
+                "rule_fc_hot": rule.fc_hot,
                 "bound_fc": np.nan,
                 "gap_pct": np.nan,
                 "ecms_fc": np.nan,
                 "ecms_gap_pct": np.nan,
-                "rule_starts": float(r["n_engine_starts"]),
+                "ecms_drive_fc_charge_balanced": np.nan,
+                "ecms_drive_fc_hot": np.nan,
+                "ecms_drive_gap_pct": np.nan,
+                "rule_starts": rule.starts,
                 "bound_starts": np.nan,
                 "ecms_starts": np.nan,
+                "ecms_drive_starts": np.nan,
                 "soc_init": soc0,
                 "bound_soc_end": np.nan,
                 "note": "",
             }
-            if not bool(r["cycle_met"]):
+            if drive.met and drive.balanced:
+                row["ecms_drive_fc_charge_balanced"] = drive.fc_charge_balanced
+                row["ecms_drive_fc_hot"] = drive.fc_hot
+                row["ecms_drive_starts"] = drive.starts
+            if not rule.met:
                 row["note"] = "does not meet the trace under the rule base"
-            elif not bool(cb["charge_balanced"].iloc[0]):
+            elif not rule.balanced:
                 row["note"] = "the rule base does not balance its charge"
             else:
                 ctl = controls(vehicle, cycle, grid)
@@ -170,6 +216,7 @@ def controller_gap(
                     row["bound_starts"] = float(b.responses["n_engine_starts"])
                     row["bound_soc_end"] = b.soc_end
                     row |= _ecms_figures(vehicle, cycle, grid, ecms_gain, soc0, ctl, row["bound_fc"])
+                    row["ecms_drive_gap_pct"] = 100.0 * (row["ecms_drive_fc_hot"] / row["bound_fc"] - 1.0)
             rows.append(row)
             done += 1
             if progress is not None:
@@ -222,9 +269,11 @@ def gap_report(
     for cname, rows in table.groupby("cycle", sort=False):
         picks = rows[~rows["vehicle"].isin(["prius", "conventional"])]
         gaps, ecms_gaps = picks["gap_pct"].dropna(), picks["ecms_gap_pct"].dropna()
+        drive_gaps = picks["ecms_drive_gap_pct"].dropna()
+        drive_over_rule = (picks["ecms_drive_fc_hot"] / picks["rule_fc_hot"] - 1.0).dropna() * 100.0
         conv_rule, conv_bound = one(rows, "conventional", "rule_fc_hot"), one(rows, "conventional", "bound_fc")
         rec_rule, rec_bound = one(rows, recommended, "rule_fc_hot"), one(rows, recommended, "bound_fc")
-        rec_ecms = one(rows, recommended, "ecms_fc")
+        rec_ecms, rec_drive = one(rows, recommended, "ecms_fc"), one(rows, recommended, "ecms_drive_fc_hot")
         by_cycle[cname] = {
             "picks_with_bound": int(gaps.size),
             "picks": int(len(picks)),
@@ -238,8 +287,17 @@ def gap_report(
             "ecms_gap_pct_max": float(ecms_gaps.max()) if ecms_gaps.size else None,
             "recommended_ecms_gap_pct": one(rows, recommended, "ecms_gap_pct"),
             "prius_ecms_gap_pct": one(rows, "prius", "ecms_gap_pct"),
+            "ecms_drive_gap_pct_median": float(drive_gaps.median()) if drive_gaps.size else None,
+            "ecms_drive_gap_pct_max": float(drive_gaps.max()) if drive_gaps.size else None,
+            "recommended_ecms_drive_gap_pct": one(rows, recommended, "ecms_drive_gap_pct"),
+            "prius_ecms_drive_gap_pct": one(rows, "prius", "ecms_drive_gap_pct"),
+            "ecms_drive_over_rule_pct_median": float(drive_over_rule.median()) if drive_over_rule.size else None,
+            "ecms_drive_over_rule_pct_min": float(drive_over_rule.min()) if drive_over_rule.size else None,
+            "ecms_drive_over_rule_pct_max": float(drive_over_rule.max()) if drive_over_rule.size else None,
+            "picks_meeting_under_ecms_drive": int(picks["ecms_drive_fc_hot"].notna().sum()),
             "saving_rule_pct": 100.0 * (1.0 - rec_rule / conv_rule),
             "saving_ecms_pct": 100.0 * (1.0 - rec_ecms / conv_rule),
+            "saving_ecms_drive_pct": 100.0 * (1.0 - rec_drive / conv_rule),
             "saving_bound_pct": 100.0 * (1.0 - rec_bound / conv_rule),
             "saving_both_bounds_pct": 100.0 * (1.0 - rec_bound / conv_bound),
         }
@@ -305,6 +363,24 @@ def gap_markdown(report: dict) -> str:
             f"| {cname} | {pct(c['ecms_gap_pct_median'])} ({pct(c['ecms_gap_pct_max'])}) "
             f"| {pct(c['recommended_ecms_gap_pct'])} | {pct(c['prius_ecms_gap_pct'])} |"
         )
+    lines += [
+        "",
+        "ECMS in the drive step (`pms.strategy: ecms`, `hevlib/sim/ecms.py`): the same cost on the simulator itself "
+        "(its thermal state, spin-ups, tailpipe, the rule base's warm-up rule and minimum times), charge-balanced "
+        "from its own start, SOC-corrected on the hot map as the rule base:",
+        "",
+        "| cycle | picks meeting the trace | over the bound: picks median (most) | recommended | stock Prius "
+        "| against the rule base: picks median (range) | saving vs conventional |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for cname, c in report["by_cycle"].items():
+        lines.append(
+            f"| {cname} | {c['picks_meeting_under_ecms_drive']} of {c['picks']} "
+            f"| {pct(c['ecms_drive_gap_pct_median'])} ({pct(c['ecms_drive_gap_pct_max'])}) "
+            f"| {pct(c['recommended_ecms_drive_gap_pct'])} | {pct(c['prius_ecms_drive_gap_pct'])} "
+            f"| {pct(c['ecms_drive_over_rule_pct_median'])} ({pct(c['ecms_drive_over_rule_pct_min'])} .. "
+            f"{pct(c['ecms_drive_over_rule_pct_max'])}) | {num(c['saving_ecms_drive_pct'])} |"
+        )
     cv = report["convergence"]
     lines += [
         "",
@@ -316,19 +392,23 @@ def gap_markdown(report: dict) -> str:
         "nothing to carry from step to step).",
         "",
         "| vehicle | cycle | rule base, charge-balanced [L/100 km] | cold surplus | rule base, hot [L/100 km] "
-        "| ECMS [L/100 km] | bound [L/100 km] | gap: rule base / ECMS | starts: rule / ECMS / bound | note |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| ECMS [L/100 km] | ECMS in the drive step, hot [L/100 km] | bound [L/100 km] "
+        "| gap: rule base / ECMS / drive-step ECMS | starts: rule / ECMS / drive-step ECMS / bound | note |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in report["rows"]:
-        b, e = (("—" if not np.isfinite(r[k]) else f"{r[k]:.3f}") for k in ("bound_fc", "ecms_fc"))
-        b_starts, e_starts = (
-            ("—" if not np.isfinite(r[k]) else f"{r[k]:.0f}") for k in ("bound_starts", "ecms_starts")
+        b, e, ed = (
+            ("—" if not np.isfinite(r[k]) else f"{r[k]:.3f}") for k in ("bound_fc", "ecms_fc", "ecms_drive_fc_hot")
         )
-        starts = f"{r['rule_starts']:.0f} / {e_starts} / {b_starts}"
+        b_starts, e_starts, d_starts = (
+            ("—" if not np.isfinite(r[k]) else f"{r[k]:.0f}")
+            for k in ("bound_starts", "ecms_starts", "ecms_drive_starts")
+        )
+        starts = f"{r['rule_starts']:.0f} / {e_starts} / {d_starts} / {b_starts}"
+        gaps = f"{pct(r['gap_pct'])} / {pct(r['ecms_gap_pct'])} / {pct(r['ecms_drive_gap_pct'])}"
         lines.append(
             f"| {r['vehicle']} | {r['cycle']} | {r['rule_fc_charge_balanced']:.3f} | {r['rule_cold_pct']:.1f} % "
-            f"| {r['rule_fc_hot']:.3f} | {e} | {b} | {pct(r['gap_pct'])} / {pct(r['ecms_gap_pct'])} | {starts} "
-            f"| {r['note']} |"
+            f"| {r['rule_fc_hot']:.3f} | {e} | {ed} | {b} | {gaps} | {starts} | {r['note']} |"
         )
     return "\n".join(lines) + "\n"
 

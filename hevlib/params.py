@@ -331,6 +331,12 @@ class PmsParams(_Strict):
     coolant_warmup: bool = True  # below the file's warm-up coolant temperature the engine stays on until warm
     engine_dynamics: bool = True  # starts spin the carrier up over their duration (start-up inertia, crank torque)
     full_power_above_kw: Annotated[float, Field(gt=0, le=500)] | None = 25.0  # ADVISOR: road power -> full engine
+    # the supervisory controller: the study's fuzzy rule base (above), or ECMS in the drive step (hevlib/sim/ecms.py:
+    # fuel plus battery energy at an equivalence factor with SOC feedback; the same warm-up rule and minimum times)
+    strategy: Literal["fuzzy", "ecms"] = "fuzzy"
+    ecms_soc_gain: Annotated[float, Field(ge=0.0, le=1000.0)] = 20.0  # per unit of SOC below soc_target
+    ecms_n_speed: Annotated[int, Field(ge=1, le=100)] = 12  # engine-on candidates per step: speeds ...
+    ecms_n_torque: Annotated[int, Field(ge=2, le=100)] = 12  # ... by torques (zero to the most at each speed)
 
     @model_validator(mode="after")
     def _ordered(self):
@@ -630,7 +636,6 @@ class BoundParams(_Strict):
     soc_step: Annotated[float, Field(gt=0.0, le=0.01)] = 0.0005
     n_speed: Annotated[int, Field(ge=2, le=200)] = 24
     n_torque: Annotated[int, Field(ge=2, le=200)] = 24
-    ecms_soc_gain: Annotated[float, Field(ge=0.0, le=1000.0)] = 20.0
     cycles: list[Annotated[str, Field(pattern=r"^[A-Za-z0-9_]+$")]] = ["ftp", "hwfet"]
 
     @model_validator(mode="after")

@@ -44,7 +44,7 @@ def bound(
     cycles = {name: cycle_named(name) for name in p.bound.cycles}
     grid = BoundGrid.from_params(p.bound)
     with progress_callback("bound") as progress:
-        study = bound_study(simulator(p), designs, recommended, cycles, grid, progress, ecms_gain=p.bound.ecms_soc_gain)
+        study = bound_study(simulator(p), designs, recommended, cycles, grid, progress, ecms_gain=p.pms.ecms_soc_gain)
     first = p.bound.cycles[0]
     plots = out_dir / "plots" / "bound"
     plots.mkdir(parents=True, exist_ok=True)
@@ -58,6 +58,7 @@ def bound(
     typer.echo(
         f"bound: {len(designs) + 1} vehicles x {len(cycles)} cycles; on {first} the rule base burns "
         f"{c['recommended_gap_pct']:+.1f} % more than the bound for {recommended} ({c['prius_gap_pct']:+.1f} % for "
-        f"the stock Prius), ECMS {c['recommended_ecms_gap_pct']:+.1f} % more -> wrote {out_dir / 'bound.json'}, "
+        f"the stock Prius), ECMS {c['recommended_ecms_gap_pct']:+.1f} % more, ECMS in the drive step "
+        f"{c['recommended_ecms_drive_gap_pct']:+.1f} % more -> wrote {out_dir / 'bound.json'}, "
         f"{out_dir / 'bound.md'}, {plots}"
     )

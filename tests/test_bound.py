@@ -23,13 +23,13 @@ from hevlib.bound import (
     _front,
     controls,
     ecms_fuel,
-    equivalence_factor,
     fuel_bound,
     gear_bound,
 )
 from hevlib.controller_gap import controller_gap
 from hevlib.design import DESIGN_VARS
 from hevlib.params import ParamsError, load_params
+from hevlib.sim.ecms import equivalence_factor
 from hevlib.sim.powertrain import layout as L
 from hevlib.sim.simulator import charge_balance, responses, simulate
 
@@ -111,13 +111,17 @@ def test_ecms_holds_charge_between_the_bound_and_the_rule_base(prius_hwfet):
     assert b.responses["fc_soc_corrected"] <= fc < 0.97 * rule["fc_soc_corrected"]
     assert fc < 1.05 * b.responses["fc_soc_corrected"]
     assert e.run.out[L.O_DIST_M] == pytest.approx(cyc.distance_m, rel=1e-9)
-    assert e.settings.s0 == pytest.approx(equivalence_factor(car)) and e.settings.soc_target == 0.6  # PTC_PRIUS_JPN
+    assert e.settings.s0 == pytest.approx(_s0(car)) and e.settings.soc_target == 0.6  # PTC_PRIUS_JPN
+
+
+def _s0(car) -> float:
+    return equivalence_factor(car.kernel.E, car.kernel.c.lhv_j_per_g)
 
 
 def test_the_equivalence_factor_is_the_reciprocal_of_the_engines_best_efficiency(sim, lib):
-    assert equivalence_factor(sim.vehicle(None, "prius")) == pytest.approx(
-        1 / lib.engine_hybrid.max_efficiency(), rel=0.02
-    )
+    car = sim.vehicle(None, "prius")
+    assert _s0(car) == pytest.approx(1 / lib.engine_hybrid.max_efficiency(), rel=0.02)
+    assert car.kernel.pc.ecms_s0 == _s0(car)  # what the drive step's ECMS and the bound's are handed
 
 
 def _ecms_end_soc(car, cyc, ctl, soc0: float, s0: float, gain: float) -> float:
@@ -133,7 +137,7 @@ def _ecms_end_soc(car, cyc, ctl, soc0: float, s0: float, gain: float) -> float:
 def test_ecms_charges_more_when_battery_energy_is_dearer_and_its_feedback_pulls_to_the_target(prius_hwfet):
     car, cyc, _, _, _ = prius_hwfet
     ctl = controls(car, cyc, COARSE)
-    s0 = equivalence_factor(car)
+    s0 = _s0(car)
     # a dearer battery (a higher factor at the target) leaves the pack fuller
     assert _ecms_end_soc(car, cyc, ctl, 0.6, 1.2 * s0, 20.0) > _ecms_end_soc(car, cyc, ctl, 0.6, 0.8 * s0, 20.0) + 0.01
     # feedback: below the target it charges, above it discharges
@@ -170,18 +174,22 @@ def test_a_trace_no_control_can_drive_is_said(sim, cycles):
 
 
 @pytest.mark.parametrize(
-    ("change", "message"),
+    ("group", "change", "message"),
     [
-        ({"soc_step": 0.0}, "bound.soc_step"),
-        ({"n_speed": 1}, "bound.n_speed"),
-        ({"ecms_soc_gain": -1.0}, "bound.ecms_soc_gain"),
-        ({"cycles": ["wltp"]}, "bound.cycles: 'wltp' is not one of cycles.cycles"),
-        ({"grid": 3}, "bound.grid: unknown key"),
+        ("bound", {"soc_step": 0.0}, "bound.soc_step"),
+        ("bound", {"n_speed": 1}, "bound.n_speed"),
+        ("bound", {"cycles": ["wltp"]}, "bound.cycles: 'wltp' is not one of cycles.cycles"),
+        ("bound", {"grid": 3}, "bound.grid: unknown key"),
+        ("bound", {"ecms_soc_gain": 20.0}, "bound.ecms_soc_gain: unknown key"),  # moved to pms (both ECMS read it)
+        ("pms", {"strategy": "dp"}, "pms.strategy"),
+        ("pms", {"ecms_soc_gain": -1.0}, "pms.ecms_soc_gain"),
+        ("pms", {"ecms_n_torque": 1}, "pms.ecms_n_torque"),
+        ("pms", {"ecms_n_speed": 0}, "pms.ecms_n_speed"),
     ],
 )
-def test_bad_bound_settings_stop_with_one_line_naming_the_key(tmp_path, root, change, message):
+def test_bad_controller_settings_stop_with_one_line_naming_the_key(tmp_path, root, group, change, message):
     raw = yaml.safe_load((root / "params.yaml").read_text())
-    raw["bound"].update(change)
+    raw[group].update(change)
     path = tmp_path / "params.yaml"
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
     with pytest.raises(ParamsError, match=message.replace(".", r"\.")):
@@ -224,6 +232,13 @@ def test_hev_bound_writes_the_gap_of_each_pick_and_the_prius(stage_dir, root):
     assert c["saving_both_bounds_pct"] == pytest.approx(100 * (1 - hw["bound_fc"] / conventional["bound_fc"])) and c[
         "saving_rule_pct"
     ] == pytest.approx(100 * (1 - hw["rule_fc_hot"] / conventional["rule_fc_hot"]))
+    # ECMS in the drive step: between the bound and the rule base on the highway, and in the headline
+    assert hw["bound_fc"] <= hw["ecms_drive_fc_hot"] < hw["rule_fc_hot"] and hw["ecms_drive_gap_pct"] == pytest.approx(
+        100 * (hw["ecms_drive_fc_hot"] / hw["bound_fc"] - 1)
+    )
+    assert c["saving_rule_pct"] < c["saving_ecms_drive_pct"] <= c["saving_bound_pct"]
+    assert c["recommended_ecms_drive_gap_pct"] == pytest.approx(hw["ecms_drive_gap_pct"])
+    assert c["ecms_drive_over_rule_pct_median"] < 0 and c["picks_meeting_under_ecms_drive"] == 1
     assert abs(report["convergence"]["soc_step_halved_pct"]) < 0.5
     assert (stage_dir / "reports/bound.md").read_text().startswith("# The controller's gap")
     assert (stage_dir / "reports/plots/bound/gap.png").stat().st_size > 0

@@ -148,6 +148,13 @@ def test_a_real_hybrid_at_the_controllers_bound_and_under_ecms(selection, raw, c
     for got_cat in (hwy, ftp):
         assert got_cat["predicted_mpg"] < got_cat["predicted_ecms_mpg"] <= got_cat["predicted_bound_mpg"]
     assert min(ftp[f"predicted_ecms_mpg_bag{k}"] for k in (1, 2, 3)) < ftp["predicted_ecms_mpg"]
+    # ECMS in the drive step: the whole simulator (the FTP's cold start in it) further on a gallon than the rule
+    # base, never past the bound; its tailpipe figures reported beside the rule base's
+    for got_cat in (hwy, ftp):
+        assert got_cat["predicted_mpg"] < got_cat["predicted_ecms_drive_mpg"] <= got_cat["predicted_bound_mpg"]
+        assert got_cat["predicted_ecms_drive_nox_g_per_mi"] > 0
+    drive_bags = [ftp[f"predicted_ecms_drive_mpg_bag{k}"] for k in (1, 2, 3)]
+    assert min(drive_bags) < ftp["predicted_ecms_drive_mpg"] < max(drive_bags)
     corolla = c[(c[epa.MODEL].str.upper() == "COROLLA") & (c[epa.CATEGORY] == "HWY")].iloc[0]
     predicted = pd.DataFrame(
         [
@@ -158,6 +165,7 @@ def test_a_real_hybrid_at_the_controllers_bound_and_under_ecms(selection, raw, c
     results = fleet.results_table(pd.DataFrame([row, corolla]), predicted, None)
     assert results["predicted_at_bound_mpg"].tolist() == [hwy["predicted_bound_mpg"], 40.0]
     assert results["predicted_at_ecms_mpg"].tolist() == [hwy["predicted_ecms_mpg"], 40.0]
+    assert results["predicted_at_ecms_drive_mpg"].tolist() == [hwy["predicted_ecms_drive_mpg"], 40.0]
 
 
 def test_the_fleet_command_refuses_an_unknown_action_in_one_line():

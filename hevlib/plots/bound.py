@@ -9,21 +9,23 @@ from hevlib.plots import plt
 
 
 def gap_figure(table: pd.DataFrame, recommended: str) -> plt.Figure:
-    """One panel per cycle: each vehicle's fuel under its controller (hot map, SOC-corrected), under ECMS and at its
-    bound, the rule base's gap written beside it ("no bound" where there is none); the recommended design named."""
+    """One panel per cycle: each vehicle's fuel under its controller (hot map, SOC-corrected), under ECMS in the drive
+    step and on the bound's model, and at its bound, the rule base's gap written beside it ("no bound" where there
+    is none); the recommended design named."""
     cycles = list(dict.fromkeys(table["cycle"]))
     n = table["vehicle"].nunique()
-    fig, axes = plt.subplots(1, len(cycles), figsize=(5.6 * len(cycles), 0.42 * n + 1.8), squeeze=False)
+    fig, axes = plt.subplots(1, len(cycles), figsize=(5.6 * len(cycles), 0.55 * n + 2.0), squeeze=False)
     bars = (
-        ("rule_fc_hot", 0.27, "tab:orange", "its controller: the rule base (Table 2); gears: the shift logic"),
-        ("ecms_fc", 0.0, "tab:green", "ECMS on the bound's candidates (power-split cars)"),
-        ("bound_fc", -0.27, "tab:blue", "its bound: DP over SOC; gears: the best on each step"),
+        ("rule_fc_hot", 0.3, "tab:orange", "its controller: the rule base (Table 2); gears: the shift logic"),
+        ("ecms_drive_fc_hot", 0.1, "tab:purple", "ECMS in the drive step (pms.strategy: ecms)"),
+        ("ecms_fc", -0.1, "tab:green", "ECMS on the bound's candidates (power-split cars)"),
+        ("bound_fc", -0.3, "tab:blue", "its bound: DP over SOC; gears: the best on each step"),
     )
     for ax, cname in zip(axes[0], cycles, strict=True):
         rows = table[table["cycle"] == cname].reset_index(drop=True)
         y = np.arange(len(rows))
         for col, dy, color, label in bars:
-            ax.barh(y + dy, rows[col].fillna(0.0), height=0.26, color=color, label=label)
+            ax.barh(y + dy, rows[col].fillna(0.0), height=0.19, color=color, label=label)
         top = float(np.nanmax(rows["rule_fc_hot"]))
         for i, r in rows.iterrows():
             text = f"{r['gap_pct']:+.1f} %" if np.isfinite(r["gap_pct"]) else "no bound"

@@ -111,6 +111,11 @@ class PmsConfig(NamedTuple):
     soc_target: float
     t_warmup_c: float  # coolant below this: the engine stays on until warm (-inf: rule off)
     full_power_above_w: float  # road power at or above which a running engine is asked for full power (inf: rule off)
+    ecms: bool  # the supervisory controller is ECMS (hevlib.sim.ecms), not the rule base (pms.strategy)
+    ecms_s0: float  # its equivalence factor at the target SOC (hevlib.sim.ecms.equivalence_factor)
+    ecms_soc_gain: float  # its SOC feedback, per unit of SOC below the target
+    ecms_n_speed: int  # its engine-on candidates: speeds across the window ...
+    ecms_n_torque: int  # ... by torques from zero to the most at each speed
 
 
 class Observed(NamedTuple):

@@ -18,12 +18,13 @@ from numba import njit
 from hevlib.cycles import KernelCycle
 from hevlib.lookup import cell, interp1_np
 from hevlib.scaling import in_series
+from hevlib.sim import ecms as ecms_
 from hevlib.sim.control import Observed, PmsConfig, Thresholds, supervise
 from hevlib.sim.powertrain import conventional as conv
 from hevlib.sim.powertrain import hybrid as split
 from hevlib.sim.powertrain import layout as L  # O_*, T_* column indices (compile-time constants)
 from hevlib.sim.powertrain import thermal as th_
-from hevlib.sim.powertrain.battery import PackLimits, current_for_power, power_limits
+from hevlib.sim.powertrain.battery import PackLimits, charge_drawn, power_limits
 from hevlib.sim.powertrain.borrow import borrowed
 from hevlib.sim.powertrain.engine import EngineArrays, max_torque, rates
 from hevlib.sim.powertrain.machines import MachineArrays, torque_limit
@@ -569,16 +570,6 @@ def _idle(lim: split.SplitLimits) -> split.SplitState:
 
 
 @njit(cache=True, inline="always")
-def _charge_drawn(p_batt: float, ocv: float, r_d: float, r_c: float, h: float, eta_c: float) -> float:
-    """Charge the pack gives at terminal power ``p_batt`` over ``h`` seconds (negative: taken, at the coulombic
-    efficiency ``eta_c``), A s."""
-    if h <= 0.0:
-        return 0.0
-    i_a = current_for_power(p_batt, ocv, r_d, r_c)
-    return i_a * h if i_a >= 0.0 else eta_c * i_a * h
-
-
-@njit(cache=True, inline="always")
 def _split_violations(st: split.SplitState, d: split.SplitDesign, E, M, G) -> float:
     """How many component limits the power-split state ``st`` exceeds (engine, generator, motor)."""
     bad = 0.0
@@ -672,7 +663,22 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
             p_dis_w=p_dis,
             t_coolant_c=temp[th_.N_BLOCK],
         )
-        want, p_target = supervise(seen, lim, th, pc, sc.soc_min, d, E, M)
+        lim_on = lim  # the window a running engine's dispatch works in (ECMS pins it to the speed it chose)
+        if pc.ecms:
+            e_start = 0.0
+            if sc.engine_dynamics and not was_running:
+                su0 = split.spin_up(w_c, lim.w_r, np.inf, cdyn, d, G, np.inf)
+                e_start = np.inf if su0.t_left_s == np.inf else su0.e_elec_j
+            pack_now = ecms_.EcmsStep(
+                f_cmd_n=f_cmd, f_req_n=f_req, regen_share=regen, p_dis_w=p_dis, p_chg_w=p_chg, soc=soc, ocv_v=ocv,
+                r_d_ohm=r_d, r_c_ohm=r_c, eta_c=sc.eta_c, dt_s=dt, running=was_running, e_start_j=e_start,
+            )  # fmt: skip
+            pick = ecms_.choose(lim, pack_now, eng_on, t_state, temp[th_.N_BLOCK], c.lhv_j_per_g, pc, d, E, M, G)
+            want, p_target = pick.engine_on, pick.p_e_target_w
+            if want and pick.w_pin_rad_s > 0.0:
+                lim_on = ecms_.pinned(lim, pick.w_pin_rad_s, d, E, G)
+        else:
+            want, p_target = supervise(seen, lim, th, pc, sc.soc_min, d, E, M)
         # ---- a start: the generator spins the carrier up to firing speed (engine dynamics), from what the pack
         # itself can spare (its voltage and current, not the controller's SOC window), the start first
         su = split.spin_up(w_c, lim.w_r, 0.0, cdyn, d, G, 0.0)  # none
@@ -704,7 +710,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
             cmd_b = split.SplitCommand(
                 f_req_n=f_b, engine_on=ON, p_e_target_w=p_target, p_dis_w=p_dis, p_chg_w=p_chg, regen_share=regen
             )
-            st = split.dispatch(lim, cmd_b, d, E, M, G)
+            st = split.dispatch(lim_on, cmd_b, d, E, M, G)
             if not stationary and _falls_short(st.f_del, f_b) and p_target < lim.p_e_max:
                 st = split.dispatch(lim, split.at_power(cmd_b, lim.p_e_max), d, E, M, G)
             if stationary or not _falls_short(st.f_del, f_b):
@@ -729,7 +735,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
                 p_chg_w=p_chg,
                 regen_share=regen,
             )
-            st = split.dispatch(lim, cmd, d, E, M, G)
+            st = split.dispatch(lim_on if cmd.engine_on else lim, cmd, d, E, M, G)
             limited = not stationary and _falls_short(st.f_del, f_req)
             if stationary:
                 v_avg = 0.0
@@ -754,7 +760,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
         h_b = dt - tau
         p_a = st_a.p_batt + su.e_elec_j / tau if tau > 0.0 else 0.0
         p_b = st.p_batt + (p_start if tau == 0.0 else 0.0)
-        q = _charge_drawn(p_a, ocv, r_d, r_c, tau, sc.eta_c) + _charge_drawn(p_b, ocv, r_d, r_c, h_b, sc.eta_c)
+        q = charge_drawn(p_a, ocv, r_d, r_c, tau, sc.eta_c) + charge_drawn(p_b, ocv, r_d, r_c, h_b, sc.eta_c)
         soc -= q / cap
         p_chem = ocv * q / dt
         p_batt = (p_a * tau + p_b * h_b) / dt

@@ -461,19 +461,26 @@ class Simulator:
     ) -> pd.DataFrame:
         """Per-step traces (``TRACE_NAMES`` plus ``time_s``, ``design``) of a few designs, from ``sim.soc_init``
         or from ``soc_init`` (e.g. a charge-balanced run's ``soc_init_charge_balanced``)."""
-        v = self.vehicle(X, vehicle)
-        res = simulate(v if soc_init is None else v.with_soc_init(soc_init), cycle, record=True, performance=False)
-        frames = []
-        for i, tr in enumerate(res.traces):
-            df = pd.DataFrame(tr, columns=list(TRACE_NAMES))
-            df.insert(0, "time_s", cycle.time_s)
-            df.insert(0, "design", i)
-            frames.append(df)
-        return pd.concat(frames, ignore_index=True)
+        return vehicle_trace(self.vehicle(X, vehicle), cycle, soc_init=soc_init)
 
     def responses(self, res: RunOutput, cycle: Cycle) -> pd.DataFrame:
         """:func:`responses` of a run of this simulator."""
         return responses(res, cycle, self.library)
+
+
+def vehicle_trace(vehicle: Vehicle, cycle: Cycle, *, soc_init: float | None = None) -> pd.DataFrame:
+    """Per-step traces (``TRACE_NAMES`` plus ``time_s``, ``design``) of every vehicle of ``vehicle``, from its own
+    start SOC or from ``soc_init``."""
+    res = simulate(
+        vehicle if soc_init is None else vehicle.with_soc_init(soc_init), cycle, record=True, performance=False
+    )
+    frames = []
+    for i, tr in enumerate(res.traces):
+        df = pd.DataFrame(tr, columns=list(TRACE_NAMES))
+        df.insert(0, "time_s", cycle.time_s)
+        df.insert(0, "design", i)
+        frames.append(df)
+    return pd.concat(frames, ignore_index=True)
 
 
 def _batch_responses(sim: Simulator, item: tuple[np.ndarray, Cycle, bool]) -> pd.DataFrame:

@@ -51,6 +51,7 @@ from hevlib.sim.drive import (
     HybridRec,
     SplitConfig,
 )
+from hevlib.sim.ecms import equivalence_factor
 from hevlib.sim.powertrain.conventional import ConvDesign, ShiftLogic
 from hevlib.sim.powertrain.engine import EngineArrays
 from hevlib.sim.powertrain.machines import MachineArrays
@@ -378,6 +379,11 @@ class KernelLibrary:
                 soc_target=pms.soc_target,
                 t_warmup_c=lib.power_split.coolant_warmup_temperature_c if pms.coolant_warmup else -np.inf,
                 full_power_above_w=pms.full_power_above_kw * 1e3 if pms.full_power_above_kw is not None else np.inf,
+                ecms=pms.strategy == "ecms",
+                ecms_s0=equivalence_factor(e_h, lib.engine_hybrid.lhv_j_per_g),
+                ecms_soc_gain=pms.ecms_soc_gain,
+                ecms_n_speed=pms.ecms_n_speed,
+                ecms_n_torque=pms.ecms_n_torque,
             ),
             configs=configs,
             split=split_config(lib, params),
@@ -498,6 +504,16 @@ class Vehicle:
         rows = self.kernel.rows.copy()
         rows[:, R_SOC0] = soc
         return Vehicle(self.kind, self.design, self.kernel._replace(rows=rows), self.library)
+
+    def with_strategy(self, strategy: Literal["fuzzy", "ecms"]) -> Vehicle:
+        """The same power-split vehicles under supervisory controller ``strategy`` (``pms.strategy``'s values: the
+        study's rule base or ECMS, :mod:`hevlib.sim.ecms`), the rest of ``pms`` as the params give it."""
+        if self.kind == "conventional" or strategy not in ("fuzzy", "ecms"):
+            raise ValueError(
+                f"with_strategy: a power split's strategy is fuzzy or ecms, not {strategy!r} ({self.kind})"
+            )
+        kernel = self.kernel._replace(pc=self.kernel.pc._replace(ecms=strategy == "ecms"))
+        return Vehicle(self.kind, self.design, kernel, self.library)
 
     def take(self, index: np.ndarray) -> Vehicle:
         """The vehicles at ``index`` (integer positions or a boolean mask), as a batch of their own."""

@@ -23,6 +23,16 @@ def current_for_power(p_w: float, voc: float, r_dis: float, r_chg: float) -> flo
     return (voc - math.sqrt(disc)) / (2.0 * r_chg)
 
 
+@njit(cache=True, inline="always")
+def charge_drawn(p_batt: float, ocv: float, r_d: float, r_c: float, h: float, eta_c: float) -> float:
+    """Charge the pack gives at terminal power ``p_batt`` over ``h`` seconds (negative: taken, at the coulombic
+    efficiency ``eta_c``), A s."""
+    if h <= 0.0:
+        return 0.0
+    i_a = current_for_power(p_batt, ocv, r_d, r_c)
+    return i_a * h if i_a >= 0.0 else eta_c * i_a * h
+
+
 class PackLimits(NamedTuple):
     """What bounds the pack's power over one step besides its state (:func:`power_limits`)."""
 
