@@ -12,6 +12,7 @@ the starts' energy, the battery's and the generator's losses, the engine's time 
 each against the vehicle's own at the first step.
 
     python benchmarks/step_convergence.py [--steps 1 0.25 0.1] [--cycles ftp hwfet us06 udds] [--out FILE] [--audit]
+        [--strategy fuzzy|ecms]
 """
 
 from __future__ import annotations
@@ -86,8 +87,10 @@ def run_one(sim: Simulator, label: str, X: np.ndarray | None, cycle: Cycle) -> p
     )
 
 
-def table(steps: list[float], cycle_names: list[str], root: Path = ROOT) -> pd.DataFrame:
+def table(steps: list[float], cycle_names: list[str], root: Path = ROOT, strategy: str | None = None) -> pd.DataFrame:
     params = load_params(root / "params.yaml")
+    if strategy is not None:  # the hybrids' supervisory controller (pms.strategy), the rest of the params as they are
+        params = params.model_copy(update={"pms": params.pms.model_copy(update={"strategy": strategy})})
     sim = Simulator(study_library(params.baseline), params)
     base = build_cycles(params.cycles)
     frames = []
@@ -151,9 +154,10 @@ def main() -> None:
     ap.add_argument("--cycles", nargs="+", default=["ftp", "hwfet", "us06", "udds"])
     ap.add_argument("--out", type=Path)
     ap.add_argument("--audit", action="store_true", help="where the moves come from (module docstring)")
+    ap.add_argument("--strategy", choices=["fuzzy", "ecms"], default=None, help="pms.strategy (default: params.yaml's)")
     a = ap.parse_args()
     t0 = time.perf_counter()
-    t = table(a.steps, a.cycles)
+    t = table(a.steps, a.cycles, strategy=a.strategy)
     if a.out:
         t.to_csv(a.out, index=False)
     pd.set_option("display.width", 250, "display.max_columns", 40)

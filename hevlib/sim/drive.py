@@ -673,7 +673,7 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
                 f_cmd_n=f_cmd, f_req_n=f_req, regen_share=regen, p_dis_w=p_dis, p_chg_w=p_chg, soc=soc, ocv_v=ocv,
                 r_d_ohm=r_d, r_c_ohm=r_c, eta_c=sc.eta_c, dt_s=dt, running=was_running, e_start_j=e_start,
             )  # fmt: skip
-            pick = ecms_.choose(lim, pack_now, eng_on, t_state, temp[th_.N_BLOCK], c.lhv_j_per_g, pc, d, E, M, G)
+            pick = ecms_.choose(lim, pack_now, seen, c.lhv_j_per_g, pc, d, E, M, G)
             want, p_target = pick.engine_on, pick.p_e_target_w
             if want and pick.w_pin_rad_s > 0.0:
                 lim_on = ecms_.pinned(lim, pick.w_pin_rad_s, d, E, G)

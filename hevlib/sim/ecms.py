@@ -32,6 +32,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from hevlib.sim.control import Observed
 from hevlib.sim.powertrain import hybrid as split
 from hevlib.sim.powertrain.battery import charge_drawn
 from hevlib.sim.powertrain.engine import EngineArrays, max_torque, rates
@@ -140,13 +141,12 @@ def costs(
 
 
 @njit(cache=True)
-def choose(
-    lim: split.SplitLimits, s: EcmsStep, engine_on: bool, t_in_state_s: float, t_coolant_c: float, lhv, pc, d, E, M, G
-):
+def choose(lim: split.SplitLimits, s: EcmsStep, seen: Observed, lhv: float, pc, d, E, M, G):
     """The engine's state and operating point for the step (an :class:`EcmsChoice`), ``pc`` the
-    :class:`hevlib.sim.control.PmsConfig` (its ECMS settings, warm-up temperature and minimum times),
-    ``engine_on`` / ``t_in_state_s`` the controller's state as the rule base keeps it, ``lhv`` the fuel's heating
-    value, J/g."""
+    :class:`hevlib.sim.control.PmsConfig` (its ECMS settings, warm-up temperature and minimum times), ``seen`` what
+    the rule base sees at the step's start (the controller's engine state and time in it, the coolant), ``lhv`` the
+    fuel's heating value, J/g."""
+    engine_on, t_in_state_s, t_coolant_c = seen.engine_on, seen.t_in_state_s, seen.t_coolant_c
     s_eq = max(pc.ecms_s0 + pc.ecms_soc_gain * (pc.soc_target - s.soc), 0.0)
     c_off, c_on, p_on, w_on = costs(lim, s, s_eq, lhv, pc.ecms_n_speed, pc.ecms_n_torque, d, E, M, G)
     # the cheaper; where neither meets the demand, the engine (the driver floors it, below)
