@@ -665,13 +665,13 @@ def _hybrid_one(veh: HybridRec, i: int, cyc: KernelCycle, t_init, o, tr, record:
         )
         lim_on = lim  # the window a running engine's dispatch works in (ECMS pins it to the speed it chose)
         if pc.ecms:
-            e_start = 0.0
+            p_start_w = 0.0  # a start's energy over the shortest run that follows it (hevlib/sim/ecms.py)
             if sc.engine_dynamics and not was_running:
                 su0 = split.spin_up(w_c, lim.w_r, np.inf, cdyn, d, G, np.inf)
-                e_start = np.inf if su0.t_left_s == np.inf else su0.e_elec_j
+                p_start_w = np.inf if su0.t_left_s == np.inf else su0.e_elec_j / max(dt, pc.engine_min_on_s)
             pack_now = ecms_.EcmsStep(
                 f_cmd_n=f_cmd, f_req_n=f_req, regen_share=regen, p_dis_w=p_dis, p_chg_w=p_chg, soc=soc, ocv_v=ocv,
-                r_d_ohm=r_d, r_c_ohm=r_c, eta_c=sc.eta_c, dt_s=dt, running=was_running, e_start_j=e_start,
+                r_d_ohm=r_d, r_c_ohm=r_c, eta_c=sc.eta_c, dt_s=dt, running=was_running, p_start_w=p_start_w,
             )  # fmt: skip
             pick = ecms_.choose(lim, pack_now, seen, c.lhv_j_per_g, pc, d, E, M, G)
             want, p_target = pick.engine_on, pick.p_e_target_w
