@@ -6,11 +6,12 @@ engine's hot map), the headline saving under each, and the bound's grid converge
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
 
 from hevlib.bound import Bound, BoundGrid, Infeasible, controls, ecms_fuel, fuel_bound, gear_bound
 from hevlib.cycles import Cycle
@@ -145,6 +146,46 @@ def _ecms_figures(vehicle, cycle: Cycle, grid: BoundGrid, gain: float, soc0: flo
     }
 
 
+#: Columns of :class:`GapTable`'s ``soc``: each power-split vehicle's SOC along the first cycle under every controller.
+SOC_COLUMNS: dict[str, str] = {
+    "vehicle": "the pick's design id or prius",
+    "time_s": "s",
+    "soc_rule": "the rule base's SOC from its charge-balanced start",
+    "soc_ecms_drive": "the drive step's ECMS's SOC from its own charge-balanced start (NaN where it has none)",
+    "soc_bound": "the bound's SOC from the rule base's start (NaN where there is no bound)",
+}
+
+
+class GapTable(NamedTuple):
+    """:func:`controller_gap`'s result: the gap table (:data:`GAP_COLUMNS`, one row per vehicle and cycle) and the
+    SOC traces on the first cycle (:data:`SOC_COLUMNS`, every power-split vehicle)."""
+
+    table: pd.DataFrame
+    soc: pd.DataFrame
+
+
+def _soc_frame(label: str, vehicle, cycle: Cycle, rule: BalancedRun, drive: BalancedRun, bound: Bound | None):
+    """One vehicle's :data:`SOC_COLUMNS` on ``cycle``: each controller's SOC from the start its figures come from."""
+    from hevlib.sim.simulator import vehicle_trace
+
+    def soc(v, start: float) -> np.ndarray:
+        return vehicle_trace(v, cycle, soc_init=start)["soc"].to_numpy(dtype=float)
+
+    nan = np.full(cycle.n_steps, np.nan)
+    return pd.DataFrame(
+        {
+            "vehicle": label,
+            "time_s": np.asarray(cycle.time_s, dtype=float),
+            "soc_rule": soc(vehicle.with_strategy("fuzzy"), rule.soc_init),
+            "soc_ecms_drive": soc(vehicle.with_strategy("ecms"), drive.soc_init)
+            if drive.met and drive.balanced
+            else nan,
+            "soc_bound": bound.trace[:, 0] if bound is not None else nan,
+        },
+        columns=list(SOC_COLUMNS),
+    )
+
+
 def controller_gap(
     vehicles: Mapping[str, object],
     cycles: Mapping[str, Cycle],
@@ -152,7 +193,7 @@ def controller_gap(
     progress: Callable[[int, int], None] | None = None,
     *,
     ecms_gain: float,
-) -> pd.DataFrame:
+) -> GapTable:
     """For each vehicle (label -> a :class:`hevlib.sim.vehicles.Vehicle` of one design) and cycle: a power-split
     car's rule base, charge-balanced (``sim.charge_balance_*`` as every stage balances), its bound and ECMS (SOC
     feedback ``ecms_gain``, balanced as the rule base) from the SOC that run starts from; the conventional car's
@@ -161,8 +202,10 @@ def controller_gap(
 
     A vehicle that does not meet a cycle's trace under the rule base gets no bound there (the bound follows the
     trace exactly: a controller's fuel on a trace it does not drive is not comparable); nor one whose trace the
-    bound finds no admissible control for on its grid (said in ``note``)."""
-    rows = []
+    bound finds no admissible control for on its grid (said in ``note``). With the table, every power-split
+    vehicle's SOC along the first cycle under each controller (:class:`GapTable`)."""
+    rows, socs = [], []
+    first = next(iter(cycles), None)
     total, done = len(vehicles) * len(cycles), 0
     for cname, cycle in cycles.items():
         for label, vehicle in vehicles.items():
@@ -196,6 +239,7 @@ def controller_gap(
                 "bound_soc_end": np.nan,
                 "note": "",
             }
+            b = None
             if drive.met and drive.balanced:
                 row["ecms_drive_fc_charge_balanced"] = drive.fc_charge_balanced
                 row["ecms_drive_fc_hot"] = drive.fc_hot
@@ -217,26 +261,54 @@ def controller_gap(
                     row["bound_soc_end"] = b.soc_end
                     row |= _ecms_figures(vehicle, cycle, grid, ecms_gain, soc0, ctl, row["bound_fc"])
                     row["ecms_drive_gap_pct"] = 100.0 * (row["ecms_drive_fc_hot"] / row["bound_fc"] - 1.0)
+            if cname == first:
+                socs.append(_soc_frame(label, vehicle, cycle, rule, drive, b))
             rows.append(row)
             done += 1
             if progress is not None:
                 progress(done, total)
-    return pd.DataFrame(rows, columns=list(GAP_COLUMNS))
+    soc = pd.concat(socs, ignore_index=True) if socs else pd.DataFrame(columns=list(SOC_COLUMNS))
+    return GapTable(table=pd.DataFrame(rows, columns=list(GAP_COLUMNS)), soc=soc)
 
 
-def grid_convergence(vehicle, cycle: Cycle, grid: BoundGrid, soc_init: float) -> tuple[Bound, dict[str, float]]:
-    """The bound of ``vehicle`` on ``cycle`` and how far it moves, in %, when the SOC step is halved and when the
-    engine-on candidates are doubled in each direction (the bound's resolution, measured where it is reported)."""
-    base = fuel_bound(vehicle, cycle, grid, soc_init)
-    fc = base.responses["fc_soc_corrected"]
-    half = fuel_bound(vehicle, cycle, grid._replace(soc_step=grid.soc_step / 2), soc_init).responses
-    finer = fuel_bound(
-        vehicle, cycle, grid._replace(n_speed=2 * grid.n_speed, n_torque=2 * grid.n_torque), soc_init
-    ).responses
-    return base, {
-        "fc": float(fc),
-        "soc_step_halved_pct": 100.0 * (half["fc_soc_corrected"] / fc - 1.0),
-        "candidates_doubled_pct": 100.0 * (finer["fc_soc_corrected"] / fc - 1.0),
+def grid_convergence(
+    vehicles: Mapping[str, object],
+    cycle_name: str,
+    cycle: Cycle,
+    grid: BoundGrid,
+    table: pd.DataFrame,
+    finer_on: Sequence[str],
+) -> dict:
+    """How far the bound moves, in %, on ``cycle`` when its SOC step is halved (every power-split vehicle of
+    ``table`` with a bound there) and when the engine-on candidates are doubled each way (``finer_on`` only: four
+    times the work), against the table's own bound from the same start."""
+    rows = table[(table["cycle"] == cycle_name) & table["bound_fc"].notna() & (table["vehicle"] != "conventional")]
+    out = []
+    for _, r in rows.iterrows():
+        vehicle, soc0, fc = vehicles[r["vehicle"]], float(r["soc_init"]), float(r["bound_fc"])
+        half = fuel_bound(vehicle, cycle, grid._replace(soc_step=grid.soc_step / 2), soc0).responses
+        entry = {
+            "vehicle": r["vehicle"],
+            "fc": fc,
+            "soc_step_halved_pct": 100.0 * (half["fc_soc_corrected"] / fc - 1.0),
+            "candidates_doubled_pct": None,
+        }
+        if r["vehicle"] in finer_on:
+            finer = grid._replace(n_speed=2 * grid.n_speed, n_torque=2 * grid.n_torque)
+            entry["candidates_doubled_pct"] = 100.0 * (
+                fuel_bound(vehicle, cycle, finer, soc0).responses["fc_soc_corrected"] / fc - 1.0
+            )
+        out.append(entry)
+
+    def most(key: str) -> float | None:
+        values = [abs(e[key]) for e in out if e[key] is not None]
+        return max(values) if values else None
+
+    return {
+        "cycle": cycle_name,
+        "soc_step_halved_pct_max_abs": most("soc_step_halved_pct"),
+        "candidates_doubled_pct_max_abs": most("candidates_doubled_pct"),
+        "rows": out,
     }
 
 
@@ -251,59 +323,48 @@ LEAVES_OUT: tuple[str, ...] = (
 )
 
 
-def gap_report(
-    table: pd.DataFrame, grid: BoundGrid, recommended: str, convergence: Mapping[str, float], *, ecms_gain: float
-) -> dict:
-    """The controller's gap as ``reports/bound.json``: the settings, what the bound leaves out, every row of
-    :func:`controller_gap`, per cycle the spread of the gap over the picks and the gaps of the recommended design,
-    the stock Prius and the conventional car, the headline saving (the recommended design against the conventional
-    car, both on the hot map) under the rule base, under ECMS, with the hybrid at its bound, and with both at their
-    bounds, ECMS's distance from the bound, and the bound's grid convergence (``convergence``, on the recommended
-    design and the first cycle)."""
+def _finite(x) -> float | None:
+    return float(x) if x is not None and np.isfinite(x) else None
 
-    def one(rows: pd.DataFrame, vehicle: str, col: str) -> float:
+
+def _spread(values: pd.Series) -> dict[str, float | None]:
+    v = values.dropna()
+    if not v.size:
+        return {"median": None, "min": None, "max": None}
+    return {"median": float(v.median()), "min": float(v.min()), "max": float(v.max())}
+
+
+def gap_report(table: pd.DataFrame, grid: BoundGrid, convergence: Mapping, *, ecms_gain: float) -> dict:
+    """The controller's gap as ``reports/bound.json``: the settings, what the bound leaves out, every row of
+    :func:`controller_gap`, per cycle the spread over the picks of how much more the rule base, ECMS on the bound's
+    model and ECMS in the drive step burn than the bound and of drive-step ECMS against the rule base, the stock
+    Prius's and the conventional car's gaps, and the bound's grid convergence (:func:`grid_convergence`). The
+    recommended design's figures and the headline saving under each controller are the validate stage's
+    (:func:`recommended_gap`: the recommendation is made after this table, from the validation runs)."""
+
+    def one(rows: pd.DataFrame, vehicle: str, col: str) -> float | None:
         hit = rows.loc[rows["vehicle"] == vehicle, col]
-        return float(hit.iloc[0]) if len(hit) else np.nan
+        return _finite(hit.iloc[0]) if len(hit) else None
 
     by_cycle = {}
     for cname, rows in table.groupby("cycle", sort=False):
-        picks = rows[~rows["vehicle"].isin(["prius", "conventional"])]
-        gaps, ecms_gaps = picks["gap_pct"].dropna(), picks["ecms_gap_pct"].dropna()
-        drive_gaps = picks["ecms_drive_gap_pct"].dropna()
-        drive_over_rule = (picks["ecms_drive_fc_hot"] / picks["rule_fc_hot"] - 1.0).dropna() * 100.0
-        conv_rule, conv_bound = one(rows, "conventional", "rule_fc_hot"), one(rows, "conventional", "bound_fc")
-        rec_rule, rec_bound = one(rows, recommended, "rule_fc_hot"), one(rows, recommended, "bound_fc")
-        rec_ecms, rec_drive = one(rows, recommended, "ecms_fc"), one(rows, recommended, "ecms_drive_fc_hot")
+        picks = rows[~rows["vehicle"].isin(REFERENCE_CARS)]
+        drive_over_rule = 100.0 * (picks["ecms_drive_fc_hot"] / picks["rule_fc_hot"] - 1.0)
         by_cycle[cname] = {
-            "picks_with_bound": int(gaps.size),
             "picks": int(len(picks)),
-            "gap_pct_median": float(gaps.median()) if gaps.size else None,
-            "gap_pct_min": float(gaps.min()) if gaps.size else None,
-            "gap_pct_max": float(gaps.max()) if gaps.size else None,
-            "recommended_gap_pct": one(rows, recommended, "gap_pct"),
-            "prius_gap_pct": one(rows, "prius", "gap_pct"),
-            "conventional_gap_pct": one(rows, "conventional", "gap_pct"),
-            "ecms_gap_pct_median": float(ecms_gaps.median()) if ecms_gaps.size else None,
-            "ecms_gap_pct_max": float(ecms_gaps.max()) if ecms_gaps.size else None,
-            "recommended_ecms_gap_pct": one(rows, recommended, "ecms_gap_pct"),
-            "prius_ecms_gap_pct": one(rows, "prius", "ecms_gap_pct"),
-            "ecms_drive_gap_pct_median": float(drive_gaps.median()) if drive_gaps.size else None,
-            "ecms_drive_gap_pct_max": float(drive_gaps.max()) if drive_gaps.size else None,
-            "recommended_ecms_drive_gap_pct": one(rows, recommended, "ecms_drive_gap_pct"),
-            "prius_ecms_drive_gap_pct": one(rows, "prius", "ecms_drive_gap_pct"),
-            "ecms_drive_over_rule_pct_median": float(drive_over_rule.median()) if drive_over_rule.size else None,
-            "ecms_drive_over_rule_pct_min": float(drive_over_rule.min()) if drive_over_rule.size else None,
-            "ecms_drive_over_rule_pct_max": float(drive_over_rule.max()) if drive_over_rule.size else None,
+            "picks_with_bound": int(picks["gap_pct"].notna().sum()),
             "picks_meeting_under_ecms_drive": int(picks["ecms_drive_fc_hot"].notna().sum()),
-            "saving_rule_pct": 100.0 * (1.0 - rec_rule / conv_rule),
-            "saving_ecms_pct": 100.0 * (1.0 - rec_ecms / conv_rule),
-            "saving_ecms_drive_pct": 100.0 * (1.0 - rec_drive / conv_rule),
-            "saving_bound_pct": 100.0 * (1.0 - rec_bound / conv_rule),
-            "saving_both_bounds_pct": 100.0 * (1.0 - rec_bound / conv_bound),
+            "gap_pct": _spread(picks["gap_pct"]),
+            "ecms_gap_pct": _spread(picks["ecms_gap_pct"]),
+            "ecms_drive_gap_pct": _spread(picks["ecms_drive_gap_pct"]),
+            "ecms_drive_over_rule_pct": _spread(drive_over_rule),
+            "prius_gap_pct": one(rows, "prius", "gap_pct"),
+            "prius_ecms_gap_pct": one(rows, "prius", "ecms_gap_pct"),
+            "prius_ecms_drive_gap_pct": one(rows, "prius", "ecms_drive_gap_pct"),
+            "conventional_gap_pct": one(rows, "conventional", "gap_pct"),
         }
     return {
         "settings": {**grid._asdict(), "ecms_soc_gain": ecms_gain, "cycles": list(dict.fromkeys(table["cycle"]))},
-        "recommended": recommended,
         "leaves_out": list(LEAVES_OUT),
         "columns": GAP_COLUMNS,
         "by_cycle": by_cycle,
@@ -312,81 +373,110 @@ def gap_report(
     }
 
 
+#: The reference cars of the gap table (every other vehicle is a pick).
+REFERENCE_CARS = ("prius", "conventional")
+#: The controllers of the answer's gap: name -> (the gap table's column of their hot-map, SOC-corrected fuel, label).
+CONTROLLERS: dict[str, tuple[str, str]] = {
+    "rule": ("rule_fc_hot", "the rule base (Table 2; the conventional car's shift logic)"),
+    "ecms_drive": ("ecms_drive_fc_hot", "ECMS in the drive step (pms.strategy: ecms)"),
+    "ecms": ("ecms_fc", "ECMS on the bound's model and candidates"),
+    "bound": ("bound_fc", "the bound: dynamic programming over SOC (the conventional car: the best gear each step)"),
+}
+
+
+def recommended_gap(table: pd.DataFrame, designs: Sequence[str], recommended: str | None) -> dict:
+    """The controller's gap in the answer (``validation.json``'s ``controller_gap``): from :func:`controller_gap`'s
+    table, per cycle, the fuel of each of ``designs`` (the shortlist) and both reference cars under every
+    controller of :data:`CONTROLLERS` (hot map, SOC-corrected, L/100 km), how much more each burns than the bound,
+    and the ``recommended`` design's saving against the conventional car under each controller (the conventional
+    car under its shift logic; ``bound_both``: both at their bounds). Every design of ``designs`` must be in the
+    table (a table of another shortlist is an error, not a gap)."""
+    missing = sorted(set(designs) - set(table["vehicle"]))
+    if missing:
+        raise ValueError(f"the controller's gap table has no row for {', '.join(missing)} (another shortlist?)")
+    by_cycle = {}
+    for cname, rows in table.groupby("cycle", sort=False):
+        rows = rows.set_index("vehicle")
+        vehicles = {}
+        for v in [*designs, *REFERENCE_CARS]:
+            if v not in rows.index:
+                continue
+            r = rows.loc[v]
+            fc = {name: _finite(r[col]) for name, (col, _) in CONTROLLERS.items()}
+            gap = {
+                name: (100.0 * (fc[name] / fc["bound"] - 1.0) if fc[name] is not None and fc["bound"] else None)
+                for name in CONTROLLERS
+                if name != "bound"
+            }
+            vehicles[v] = {"fc_l_100km": fc, "over_bound_pct": gap, "note": str(r["note"])}
+        entry = {"vehicles": vehicles, "saving_pct": None}
+        if recommended is not None and recommended in vehicles and "conventional" in vehicles:
+            rec, conv = vehicles[recommended]["fc_l_100km"], vehicles["conventional"]["fc_l_100km"]
+
+            def saving(hybrid: float | None, base: float | None) -> float | None:
+                return 100.0 * (1.0 - hybrid / base) if hybrid is not None and base else None
+
+            entry["saving_pct"] = {name: saving(rec[name], conv["rule"]) for name in CONTROLLERS} | {
+                "bound_both": saving(rec["bound"], conv["bound"])
+            }
+        by_cycle[cname] = entry
+    return {
+        "yardstick": "fuel SOC-corrected on the engine's hot map (the cold start's surplus out), L/100 km",
+        "controllers": {name: label for name, (_, label) in CONTROLLERS.items()},
+        "recommended": recommended,
+        "by_cycle": by_cycle,
+    }
+
+
 def gap_markdown(report: dict) -> str:
-    """``reports/bound.md``: the gap per cycle and the table of every pick."""
-    rec = report["recommended"]
+    """``reports/bound.md``: the gap per cycle over the picks and for both cars, and the table of every vehicle."""
     s = report["settings"]
-    lines = [
-        "# The controller's gap: the rule base against the least fuel any controller could burn",
-        "",
-        f"Dynamic programming over the battery's SOC (`hev bound`, `hevlib/bound.py`): SOC step {s['soc_step']:g}, "
-        f"{s['n_speed']} x {s['n_torque']} engine-on candidates per step. Both sides SOC-corrected on the engine's "
-        "hot map (the rule base's cold-start surplus is taken out and shown). The bound leaves out: "
-        + "; ".join(report["leaves_out"])
-        + ".",
-        "",
-        "| cycle | picks with a bound | gap median (range) | recommended (" + rec + ") | stock Prius "
-        "| conventional (gears) | saving vs conventional: rule base | hybrid under ECMS | hybrid at its bound "
-        "| both at their bounds |",
-        "|---|---|---|---|---|---|---|---|---|---|",
-    ]
 
     def pct(x):
         return "—" if x is None or not np.isfinite(x) else f"{x:+.1f} %"
 
-    def num(x):
-        return "—" if x is None or not np.isfinite(x) else f"{x:.1f} %"
+    def spread(d: Mapping) -> str:
+        return "—" if d["median"] is None else f"{pct(d['median'])} ({pct(d['min'])} .. {pct(d['max'])})"
 
-    for cname, c in report["by_cycle"].items():
-        spread = (
-            f"{pct(c['gap_pct_median'])} ({pct(c['gap_pct_min'])} .. {pct(c['gap_pct_max'])})"
-            if c["gap_pct_median"] is not None
-            else "—"
-        )
-        lines.append(
-            f"| {cname} | {c['picks_with_bound']} of {c['picks']} | {spread} | {pct(c['recommended_gap_pct'])} "
-            f"| {pct(c['prius_gap_pct'])} | {pct(c['conventional_gap_pct'])} | {num(c['saving_rule_pct'])} "
-            f"| {num(c['saving_ecms_pct'])} | {num(c['saving_bound_pct'])} | {num(c['saving_both_bounds_pct'])} |"
-        )
-    lines += [
+    lines = [
+        "# The controller's gap: the rule base against the least fuel any controller could burn",
         "",
-        "ECMS (`hevlib.bound.ecms_fuel`): each step the control of least fuel plus battery energy at the equivalence "
-        f"factor s0 + {report['settings']['ecms_soc_gain']:g} x (target SOC - SOC), s0 the reciprocal of the engine's "
-        "best efficiency, on the bound's model and candidates (a causal controller: it knows nothing of the trace "
-        "ahead), charge-balanced as the rule base. How much more it burns than the bound:",
+        f"Dynamic programming over the battery's SOC (`hev bound`, `hevlib/bound.py`): SOC step {s['soc_step']:g}, "
+        f"{s['n_speed']} x {s['n_torque']} engine-on candidates per step. Every controller SOC-corrected on the "
+        "engine's hot map (the cold-start surplus is taken out and shown). The bound leaves out: "
+        + "; ".join(report["leaves_out"])
+        + ". The recommended design's gap and the headline saving under each controller are in "
+        "`reports/summary.md` and `reports/validation.json` (`controller_gap`).",
         "",
-        "| cycle | picks: median (most) | recommended | stock Prius |",
-        "|---|---|---|---|",
+        "How much more each controller burns than the bound, over the picks: median (range):",
+        "",
+        "| cycle | picks with a bound | rule base | ECMS in the drive step | ECMS on the bound's model "
+        "| drive-step ECMS against the rule base | stock Prius: rule / drive-step ECMS / ECMS | conventional (gears) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for cname, c in report["by_cycle"].items():
+        prius = f"{pct(c['prius_gap_pct'])} / {pct(c['prius_ecms_drive_gap_pct'])} / {pct(c['prius_ecms_gap_pct'])}"
         lines.append(
-            f"| {cname} | {pct(c['ecms_gap_pct_median'])} ({pct(c['ecms_gap_pct_max'])}) "
-            f"| {pct(c['recommended_ecms_gap_pct'])} | {pct(c['prius_ecms_gap_pct'])} |"
-        )
-    lines += [
-        "",
-        "ECMS in the drive step (`pms.strategy: ecms`, `hevlib/sim/ecms.py`): the same cost on the simulator itself "
-        "(its thermal state, spin-ups, tailpipe, the rule base's warm-up rule and minimum times), charge-balanced "
-        "from its own start, SOC-corrected on the hot map as the rule base:",
-        "",
-        "| cycle | picks meeting the trace | over the bound: picks median (most) | recommended | stock Prius "
-        "| against the rule base: picks median (range) | saving vs conventional |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for cname, c in report["by_cycle"].items():
-        lines.append(
-            f"| {cname} | {c['picks_meeting_under_ecms_drive']} of {c['picks']} "
-            f"| {pct(c['ecms_drive_gap_pct_median'])} ({pct(c['ecms_drive_gap_pct_max'])}) "
-            f"| {pct(c['recommended_ecms_drive_gap_pct'])} | {pct(c['prius_ecms_drive_gap_pct'])} "
-            f"| {pct(c['ecms_drive_over_rule_pct_median'])} ({pct(c['ecms_drive_over_rule_pct_min'])} .. "
-            f"{pct(c['ecms_drive_over_rule_pct_max'])}) | {num(c['saving_ecms_drive_pct'])} |"
+            f"| {cname} | {c['picks_with_bound']} of {c['picks']} | {spread(c['gap_pct'])} "
+            f"| {spread(c['ecms_drive_gap_pct'])} ({c['picks_meeting_under_ecms_drive']} meet the trace) "
+            f"| {spread(c['ecms_gap_pct'])} | {spread(c['ecms_drive_over_rule_pct'])} | {prius} "
+            f"| {pct(c['conventional_gap_pct'])} |"
         )
     cv = report["convergence"]
+    doubled = [e for e in cv["rows"] if e["candidates_doubled_pct"] is not None]
     lines += [
         "",
-        f"Grid convergence ({rec}, {s['cycles'][0]}): halving the SOC step moves the bound by "
-        f"{cv['soc_step_halved_pct']:+.2f} %, doubling the candidates each way by "
-        f"{cv['candidates_doubled_pct']:+.2f} %.",
+        "ECMS on the bound's model (`hevlib.bound.ecms_fuel`) chooses each step the control of least fuel plus battery "
+        f"energy at the equivalence factor s0 + {s['ecms_soc_gain']:g} x (target SOC - SOC), s0 the reciprocal of the "
+        "engine's best efficiency, on the bound's candidates; ECMS in the drive step (`pms.strategy: ecms`, "
+        "`hevlib/sim/ecms.py`) the same cost on the simulator itself (its thermal state, spin-ups, tailpipe, the rule "
+        "base's warm-up rule and minimum times). Both are causal: they know nothing of the trace ahead.",
+        "",
+        f"Grid convergence on {cv['cycle']}: halving the SOC step moves the bound by at most "
+        f"{cv['soc_step_halved_pct_max_abs']:.2f} % over {len(cv['rows'])} vehicles; doubling the candidates each "
+        f"way by at most {cv['candidates_doubled_pct_max_abs']:.2f} % ("
+        + ", ".join(f"{e['vehicle']} {e['candidates_doubled_pct']:+.2f} %" for e in doubled)
+        + ").",
         "",
         "The conventional car's controller is its shift logic and its bound the best gear on every step (no battery: "
         "nothing to carry from step to step).",
@@ -418,38 +508,45 @@ def cold_share(out: np.ndarray) -> float:
     return float(out[L.O_E_FUEL_COLD] / out[L.O_E_FUEL]) if out[L.O_E_FUEL] > 0.0 else 0.0
 
 
+def gap_schema() -> pa.Schema:
+    """Explicit schema of ``data/bound/gap.parquet`` (:data:`GAP_COLUMNS`; fuel in L/100 km, gaps in %)."""
+    text = ("vehicle", "cycle", "note")
+    fields = [pa.field(c, pa.string() if c in text else pa.float64(), nullable=c not in text[:2]) for c in GAP_COLUMNS]
+    return pa.schema(fields)
+
+
+def soc_schema() -> pa.Schema:
+    """Explicit schema of ``data/bound/soc.parquet`` (:data:`SOC_COLUMNS`)."""
+    return pa.schema([pa.field(c, pa.string() if c == "vehicle" else pa.float64()) for c in SOC_COLUMNS])
+
+
 class BoundStudy(NamedTuple):
-    """What ``hev bound`` writes: the report (:func:`gap_report`), the gap table, the recommended design's bound
-    on the first cycle and the rule base's trace there from the same start."""
+    """What ``hev bound`` writes: the report (:func:`gap_report`), the gap table and the SOC traces on the first
+    cycle (:class:`GapTable`)."""
 
     report: dict
     table: pd.DataFrame
-    recommended_bound: Bound
-    recommended_rule_trace: pd.DataFrame
+    soc: pd.DataFrame
 
 
 def bound_study(
     sim,
     designs: Mapping[str, np.ndarray],
-    recommended: str,
     cycles: Mapping[str, Cycle],
     grid: BoundGrid,
     progress: Callable[[int, int], None] | None = None,
     *,
     ecms_gain: float,
 ) -> BoundStudy:
-    """The controller's gap of every design (``designs``: id -> its row of the seven variables), the stock Prius
-    and the conventional car on ``cycles`` (:func:`controller_gap`, ECMS with SOC feedback ``ecms_gain``), and the
-    grid convergence of the recommended design's bound on the first cycle."""
+    """The controller's gap of every design (``designs``: id -> its row of the seven variables, the shortlist in its
+    order), the stock Prius and the conventional car on ``cycles`` (:func:`controller_gap`, ECMS with SOC feedback
+    ``ecms_gain``), and the bound's grid convergence on the first cycle: the SOC step halved for every power-split
+    vehicle, the candidates doubled for the stock Prius and the shortlist's first design."""
     vehicles = {"conventional": sim.vehicle(None, "conventional"), "prius": sim.vehicle(None, "prius")}
     vehicles.update({k: sim.vehicle(np.asarray(x, float).reshape(1, -1), "hybrid") for k, x in designs.items()})
-    table = controller_gap(vehicles, cycles, grid, progress, ecms_gain=ecms_gain)
+    gap = controller_gap(vehicles, cycles, grid, progress, ecms_gain=ecms_gain)
     first = next(iter(cycles))
-    row = table[(table["vehicle"] == recommended) & (table["cycle"] == first)].iloc[0]
-    if not np.isfinite(row["bound_fc"]):
-        raise ValueError(f"bound: the recommended design {recommended} has no bound on {first} ({row['note']})")
-    soc0 = float(row["soc_init"])
-    rec_bound, convergence = grid_convergence(vehicles[recommended], cycles[first], grid, soc0)
-    rule_trace = sim.trace(np.asarray(designs[recommended], float).reshape(1, -1), cycles[first], soc_init=soc0)
-    report = gap_report(table, grid, recommended, convergence, ecms_gain=ecms_gain)
-    return BoundStudy(report=report, table=table, recommended_bound=rec_bound, recommended_rule_trace=rule_trace)
+    finer_on = ["prius", *list(designs)[:1]]
+    convergence = grid_convergence(vehicles, first, cycles[first], grid, gap.table, finer_on)
+    report = gap_report(gap.table, grid, convergence, ecms_gain=ecms_gain)
+    return BoundStudy(report=report, table=gap.table, soc=gap.soc)

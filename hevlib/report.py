@@ -390,6 +390,72 @@ def _seed_spread_lines(validation: ValidationSummary, robustness: Mapping | None
     return out
 
 
+def _controller_gap_lines(validation: ValidationSummary) -> list[str]:
+    """The controller's gap in the answer (``validation.controller_gap``, from ``hev bound``'s table): per cycle the
+    recommended design's and both reference cars' fuel under every controller, how much more each burns than the
+    bound, the headline saving under each, and the shortlist's fuel under each with its least-fuel design."""
+    gap = validation.controller_gap
+    if not gap:
+        return []
+    names = list(gap["controllers"])
+    rec = gap["recommended"]
+    out = [
+        "### How much the controller leaves on the table (`hev bound`)",
+        "",
+        "Fuel on each cycle under the study's rule base, ECMS in the drive step (`pms.strategy: ecms`), ECMS on the "
+        "bound's model and the bound (dynamic programming over SOC: the least any controller could burn on the same "
+        f"hardware and trace); {gap['yardstick']}. Details and the bound's grid convergence: `reports/bound.md`.",
+        "",
+    ]
+    header = ["cycle", "vehicle", *[f"{n} [L/100 km]" for n in names], *[f"{n} over bound" for n in names[:-1]]]
+    rows, savings = [], []
+    for cycle, c in gap["by_cycle"].items():
+        for v in (rec, "prius", "conventional"):
+            entry = c["vehicles"].get(v)
+            if entry is None:
+                continue
+            label = f"{v} (recommended)" if v == rec else v
+            over = [None if x is None else f"{x:+.1f} %" for x in (entry["over_bound_pct"][n] for n in names[:-1])]
+            rows.append([cycle, label, *[entry["fc_l_100km"][n] for n in names], *over])
+        if c["saving_pct"]:
+            sv = c["saving_pct"]
+            savings.append(
+                f"{cycle}: "
+                + ", ".join(
+                    f"{n} {'n/a' if sv[n] is None else format(sv[n], '.1f') + ' %'}" for n in [*names, "bound_both"]
+                )
+            )
+    out += [markdown_table(header, rows), ""]
+    if savings:
+        out += [
+            "The recommended design's fuel saving against the conventional car (under its shift logic; `bound_both`: "
+            "both at their bounds), under each controller: " + "; ".join(savings) + ".",
+            "",
+        ]
+    first, c = next(iter(gap["by_cycle"].items()))
+    picks = {v: e for v, e in c["vehicles"].items() if v not in ("prius", "conventional")}
+    least = {
+        n: min(
+            (v for v in picks if picks[v]["fc_l_100km"][n] is not None),
+            key=lambda v: picks[v]["fc_l_100km"][n],
+            default=None,
+        )
+        for n in names
+    }
+    out += [
+        f"The shortlist on {first} under each controller (least fuel: "
+        + ", ".join(f"{n} {least[n] or 'n/a'}" for n in names)
+        + "):",
+        "",
+        markdown_table(
+            ["design", *[f"{n} [L/100 km]" for n in names], "note"],
+            [[v, *[e["fc_l_100km"][n] for n in names], e["note"]] for v, e in picks.items()],
+        ),
+        "",
+    ]
+    return out
+
+
 def _r2_cell(v) -> str:
     """A held-out R², bold where below :data:`~hevlib.validation.trust.R2_BELOW` (worse than a constant)."""
     if v is None:
@@ -490,6 +556,7 @@ def _build_this(validation: ValidationSummary, pareto: ParetoSummary, robustness
         "",
         *_equivalents_lines(rec),
         *_seed_spread_lines(validation, robustness),
+        *_controller_gap_lines(validation),
     ]
     for cycle, fig in d.by_cycle.items():
         rows = []

@@ -288,8 +288,8 @@ class Trust:
 class ValidationSummary:
     """``reports/validation.json``: the picks against both baselines on the headline cycle (improvement tables
     per source, in %; ``all`` = every pick), counts, engine downsizing, absolute means, the other cycles'
-    tables, the recommendation, the trust of each source (its model's held-out quality) and the seed spread
-    (null unless the robustness study was made with this run's settings and code)."""
+    tables, the recommendation, the trust of each source (its model's held-out quality), the seed spread
+    (null unless the robustness study was made with this run's settings and code) and the controller's gap."""
 
     cycle: str
     improvement: dict[str, dict[str, dict[str, Figure]]]
@@ -308,6 +308,10 @@ class ValidationSummary:
     seed_spread: dict[str, Any] | None = None
     #: whether ``seed_spread`` holds this run's figures, and if not, how to make them
     seed_spread_status: str = SEED_SPREAD_NOT_MEASURED
+    #: the controller's gap (:func:`hevlib.controller_gap.recommended_gap` of ``hev bound``'s table): every pick's and
+    #: both reference cars' fuel under the rule base, ECMS and the bound, the headline saving under each; omitted
+    #: where the stage ran without it (``hev validate --no-gap``: the seed-spread replicates)
+    controller_gap: dict[str, Any] | None = field(default=None, metadata=OMIT_NONE)
 
 
 __all__ = [

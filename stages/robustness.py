@@ -62,7 +62,11 @@ def _chain(sources: list[str]) -> list[list[str]]:
     import stages.validate  # noqa: F401
 
     first = ["oracle"] if "oracle" in sources else []
-    return [*(["optimise", s] for s in first + [s for s in sources if s != "oracle"]), ["pareto"], ["validate"]]
+    return [
+        *(["optimise", s] for s in first + [s for s in sources if s != "oracle"]),
+        ["pareto"],
+        ["validate", "--no-gap"],
+    ]
 
 
 @app.command("robustness")

@@ -10,6 +10,7 @@ import typer
 from hevlib.explorer import explorer_data, write_explorer
 from hevlib.io import read_table, write_json, write_parquet, write_text
 from hevlib.plots import save_figure
+from hevlib.plots.bound import soc_figure
 from hevlib.plots.validation import catalyst_figure, improvement_figure, traces_figure
 from hevlib.report import build_summary
 from hevlib.results import ParetoSummary, from_json, to_json
@@ -32,6 +33,7 @@ from hevlib.validation import (
     validation_schema,
     validation_table,
 )
+from stages.bound import GAP, SOC
 from stages.cli import app
 from stages.common import PARAMS_OPTION, params_from, stage
 from stages.simulating import CYCLES_DIR, cycle_named, simulator
@@ -70,9 +72,29 @@ def _trust(sources: list[str]):
     return source_trust(_read_json(SURROGATE_METRICS), reports, sources, SURROGATE_METRICS.as_posix())
 
 
+def _controller_gap(selected, recommended: str | None) -> tuple[dict, object]:
+    """The controller's gap in the answer (:func:`hevlib.controller_gap.recommended_gap` of ``hev bound``'s table for
+    this shortlist) and the SOC traces the figure of the recommended design draws from."""
+    from hevlib.controller_gap import recommended_gap
+
+    for path in (GAP, SOC):
+        if not path.exists():
+            raise FileNotFoundError(f"{path}: no such file; run `hev bound` first (or `hev validate --no-gap`)")
+    designs = [str(d) for d in selected["design_id"]]
+    return recommended_gap(read_table(GAP), designs, recommended), read_table(SOC)
+
+
 @app.command("validate")
 @stage
-def validate(params_path: str = PARAMS_OPTION) -> None:
+def validate(
+    params_path: str = PARAMS_OPTION,
+    gap: bool = typer.Option(
+        True,
+        "--gap/--no-gap",
+        help="put the controller's gap (`hev bound`'s data/bound/gap.parquet for this shortlist) into the answer; "
+        "--no-gap: leave it out (the seed-spread replicates, whose shortlists have no bound)",
+    ),
+) -> None:
     """Simulate the picks and both baselines on params.validate.cycles; write the table, metrics, summary."""
     params = params_from(params_path)
     names = list(params.validation.cycles)
@@ -97,8 +119,17 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     if rec.design is not None and names[0] == "ftp":
         rec = rec.with_ftp_bags(ftp_bags(sim, table, selected, rec.design.design_id, cycles[0], prius_x))
     robustness = _robustness(params_path)
+    rec_id = rec.design.design_id if rec.design is not None else None
+    controller_gap, soc = _controller_gap(selected, rec_id) if gap else (None, None)
     summary = summarise(
-        table, algos, names, params.baseline.conventional.p_eng_kw, rec, _trust(algos), robustness=robustness
+        table,
+        algos,
+        names,
+        params.baseline.conventional.p_eng_kw,
+        rec,
+        _trust(algos),
+        robustness=robustness,
+        controller_gap=controller_gap,
     )
 
     figures = {
@@ -120,6 +151,10 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
             "no time-trace plot: "
             + ("no picked design" if best is None else "the simulator offers no traces (Simulator.trace)")
         )
+    if soc is not None and rec_id is not None and (soc["vehicle"] == rec_id).any():
+        first = next(iter(controller_gap["by_cycle"]))
+        title = f"{rec_id} on {first}: SOC under each controller"
+        figures[f"soc_controllers_{first}.png"] = soc_figure(soc[soc["vehicle"] == rec_id], title)
     plots = {
         "Objective trade-offs of the kept designs (sizing cycle)": "plots/pareto/tradeoffs.png",
         "Distributions of the kept designs' objectives (sizing cycle)": "plots/pareto/distributions.png",
@@ -131,6 +166,11 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
         if f"catalyst_{names[0]}.png" in figures:
             caption = f"{names[0]} cold start: catalyst warm-up of recommended design {best} against both baselines"
             plots[caption] = f"plots/validation/catalyst_{names[0]}.png"
+    soc_png = [name for name in figures if name.startswith("soc_controllers_")]
+    if soc_png:
+        plots[f"SOC of recommended design {rec_id} under the rule base, ECMS and the bound"] = (
+            f"plots/validation/{soc_png[0]}"
+        )
     text = build_summary(pareto, summary, table, selected, plots, notes, robustness)
 
     write_parquet(TABLE, table, validation_schema())
@@ -141,7 +181,10 @@ def validate(params_path: str = PARAMS_OPTION) -> None:
     write_json(ANSWER, answer(head))
     equivalents = [e.design_id for e in rec.equivalents]
     write_explorer(
-        EXPLORER, explorer_data(read_table(MERGED), sizing, best if rec.design else None, sizing_name, equivalents)
+        EXPLORER,
+        explorer_data(
+            read_table(MERGED), sizing, best if rec.design else None, sizing_name, equivalents, controller_gap
+        ),
     )
     for name, fig in figures.items():
         save_figure(fig, PLOTS_DIR / name)

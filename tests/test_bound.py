@@ -196,7 +196,8 @@ def test_bad_controller_settings_stop_with_one_line_naming_the_key(tmp_path, roo
         load_params(path)
 
 
-def test_hev_bound_writes_the_gap_of_each_pick_and_the_prius(stage_dir, root):
+def test_hev_bound_writes_the_gap_of_each_pick_and_both_cars(stage_dir, root):
+    from hevlib.controller_gap import recommended_gap
     from stages.cli import app, register_all
 
     register_all()
@@ -204,7 +205,6 @@ def test_hev_bound_writes_the_gap_of_each_pick_and_the_prius(stage_dir, root):
     picks = pd.DataFrame([{"design_id": rec["design_id"], **rec["design"]}])
     (stage_dir / "data/pareto").mkdir(parents=True)
     picks[["design_id", *DESIGN_VARS]].to_parquet(stage_dir / "data/pareto/selected.parquet")
-    (stage_dir / "reports/validation.json").write_text(json.dumps({"recommendation": {"design": rec}}))
     raw = yaml.safe_load((stage_dir / "params.yaml").read_text())
     raw["bound"] = {"soc_step": 0.001, "n_speed": 12, "n_torque": 12, "cycles": ["hwfet", "us06"]}
     (stage_dir / "params.yaml").write_text(yaml.safe_dump(raw, sort_keys=False))
@@ -213,6 +213,10 @@ def test_hev_bound_writes_the_gap_of_each_pick_and_the_prius(stage_dir, root):
     report = json.loads((stage_dir / "reports/bound.json").read_text())
     rows = {(r["vehicle"], r["cycle"]): r for r in report["rows"]}
     assert set(rows) == {(v, c) for v in ("conventional", "prius", rec["design_id"]) for c in ("hwfet", "us06")}
+    table = pd.read_parquet(stage_dir / "data/bound/gap.parquet")  # the table validate reads: the report's rows
+    assert table.set_index(["vehicle", "cycle"])["rule_fc_hot"].to_dict() == pytest.approx(
+        {k: r["rule_fc_hot"] for k, r in rows.items()}, rel=1e-11
+    )
     conventional = rows[("conventional", "hwfet")]  # its shift logic against its best gear on every step
     assert 0.0 <= conventional["gap_pct"] < 5.0 and conventional["rule_cold_pct"] == 0.0
     hw = rows[(rec["design_id"], "hwfet")]
@@ -221,25 +225,37 @@ def test_hev_bound_writes_the_gap_of_each_pick_and_the_prius(stage_dir, root):
     )
     assert rows[("prius", "us06")]["bound_fc"] is None  # no bound where the rule base leaves the trace
     c = report["by_cycle"]["hwfet"]
-    assert c["recommended_gap_pct"] == pytest.approx(hw["gap_pct"]) and c["saving_bound_pct"] > c["saving_rule_pct"]
+    assert c["gap_pct"]["median"] == pytest.approx(hw["gap_pct"]) and c["picks_with_bound"] == 1
     assert hw["bound_fc"] <= hw["ecms_fc"] < hw["rule_fc_hot"] and hw["ecms_gap_pct"] == pytest.approx(
         100 * (hw["ecms_fc"] / hw["bound_fc"] - 1)
     )
-    assert c["saving_rule_pct"] < c["saving_ecms_pct"] <= c["saving_bound_pct"]
-    assert (
-        c["recommended_ecms_gap_pct"] == pytest.approx(hw["ecms_gap_pct"]) and report["settings"]["ecms_soc_gain"] > 0
-    )
-    assert c["saving_both_bounds_pct"] == pytest.approx(100 * (1 - hw["bound_fc"] / conventional["bound_fc"])) and c[
-        "saving_rule_pct"
-    ] == pytest.approx(100 * (1 - hw["rule_fc_hot"] / conventional["rule_fc_hot"]))
-    # ECMS in the drive step: between the bound and the rule base on the highway, and in the headline
+    assert c["ecms_gap_pct"]["median"] == pytest.approx(hw["ecms_gap_pct"]) and report["settings"]["ecms_soc_gain"] > 0
+    # ECMS in the drive step: between the bound and the rule base on the highway
     assert hw["bound_fc"] <= hw["ecms_drive_fc_hot"] < hw["rule_fc_hot"] and hw["ecms_drive_gap_pct"] == pytest.approx(
         100 * (hw["ecms_drive_fc_hot"] / hw["bound_fc"] - 1)
     )
-    assert c["saving_rule_pct"] < c["saving_ecms_drive_pct"] <= c["saving_bound_pct"]
-    assert c["recommended_ecms_drive_gap_pct"] == pytest.approx(hw["ecms_drive_gap_pct"])
-    assert c["ecms_drive_over_rule_pct_median"] < 0 and c["picks_meeting_under_ecms_drive"] == 1
-    assert abs(report["convergence"]["soc_step_halved_pct"]) < 0.5
+    assert c["ecms_drive_gap_pct"]["max"] == pytest.approx(hw["ecms_drive_gap_pct"])
+    assert c["ecms_drive_over_rule_pct"]["median"] < 0 and c["picks_meeting_under_ecms_drive"] == 1
+    # the grid convergence on the first cycle: every power-split vehicle with a bound, the finer candidates on two
+    cv = report["convergence"]
+    assert cv["cycle"] == "hwfet" and {e["vehicle"] for e in cv["rows"]} == {"prius", rec["design_id"]}
+    assert cv["soc_step_halved_pct_max_abs"] < 0.5 and all(e["candidates_doubled_pct"] is not None for e in cv["rows"])
+    # the headline saving under each controller (validate's, from this table)
+    gap = recommended_gap(table, [rec["design_id"]], rec["design_id"])
+    sv = gap["by_cycle"]["hwfet"]["saving_pct"]
+    assert sv["rule"] == pytest.approx(100 * (1 - hw["rule_fc_hot"] / conventional["rule_fc_hot"]))
+    assert sv["bound_both"] == pytest.approx(100 * (1 - hw["bound_fc"] / conventional["bound_fc"]))
+    assert sv["rule"] < sv["ecms"] <= sv["bound"] and sv["rule"] < sv["ecms_drive"] <= sv["bound"]
+    assert gap["by_cycle"]["us06"]["vehicles"]["prius"]["fc_l_100km"]["bound"] is None
+    with pytest.raises(ValueError, match="no row for oracle-999"):
+        recommended_gap(table, ["oracle-999"], None)
+    # SOC under each controller on the first cycle, each from its own start
+    soc = pd.read_parquet(stage_dir / "data/bound/soc.parquet")
+    one = soc[soc["vehicle"] == rec["design_id"]]
+    n_steps = len(pd.read_parquet(stage_dir / "data/cycles/hwfet.parquet"))
+    assert set(soc["vehicle"]) == {"prius", rec["design_id"]} and len(one) == n_steps
+    assert abs(one["soc_rule"].iloc[0] - hw["soc_init"]) < 0.01  # both from the rule base's balanced start
+    assert abs(one["soc_bound"].iloc[0] - hw["soc_init"]) < 0.01 and one["soc_bound"].iloc[-1] >= hw["soc_init"] - 2e-3
+    assert one["soc_ecms_drive"].notna().all() and soc.loc[soc["vehicle"] == "prius", "soc_bound"].notna().all()
     assert (stage_dir / "reports/bound.md").read_text().startswith("# The controller's gap")
     assert (stage_dir / "reports/plots/bound/gap.png").stat().st_size > 0
-    assert (stage_dir / "reports/plots/bound/soc.png").stat().st_size > 0

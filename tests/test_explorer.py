@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 from browser import chromium, wait_for
 
+from hevlib.controller_gap import GAP_COLUMNS, recommended_gap
 from hevlib.design import DESIGN_VARS, OBJECTIVES, read_designs
 from hevlib.explorer import explorer_data, explorer_html
 from hevlib.io import read_table, write_table
@@ -34,12 +35,38 @@ def _merged(path) -> pd.DataFrame:
     return read_table(path)
 
 
+def _gap() -> dict:
+    """The controller's gap of two picks and both cars on FTP (:func:`recommended_gap` of a hand-made table)."""
+    fc = {
+        "oracle-1": (4.5, 4.2, 4.0),
+        "oracle-2": (4.8, 4.4, 4.1),
+        "prius": (5.0, 4.6, 4.3),
+        "conventional": (8.0, None, 7.8),
+    }
+    rows = [
+        dict.fromkeys(GAP_COLUMNS, np.nan)
+        | {
+            "vehicle": v,
+            "cycle": "ftp",
+            "rule_fc_hot": r,
+            "ecms_drive_fc_hot": np.nan if d is None else d,
+            "bound_fc": b,
+        }
+        | {"note": ""}
+        for v, (r, d, b) in fc.items()
+    ]
+    return recommended_gap(pd.DataFrame(rows, columns=list(GAP_COLUMNS)), ["oracle-1", "oracle-2"], "oracle-1")
+
+
+GAP = _gap()
+
+
 @pytest.fixture(scope="module")
 def page(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("explorer")
     merged = _merged(tmp / "merged.parquet")
     base = {"prius": {v: 30.0 for v in (*DESIGN_VARS, *OBJECTIVES)}, "conventional": {k: 20.0 for k in OBJECTIVES}}
-    html = explorer_html(explorer_data(merged, base, "oracle-1", "udds", equivalents=["oracle-2"]))
+    html = explorer_html(explorer_data(merged, base, "oracle-1", "udds", equivalents=["oracle-2"], controller_gap=GAP))
     path = tmp / "explorer.html"
     path.write_text(html)
     driver = chromium()
@@ -91,6 +118,29 @@ def test_the_recommended_design_and_its_near_equivalents_are_marked(page):
     assert status["nsga3-0"] == "picked" and "near-equivalents within the model's noise (oracle-2)" in html
     names = driver.execute_script("return document.getElementById('scatter').data.map(t => t.name)")
     assert "near-equivalents" in names and "recommended" in names
+
+
+def test_the_controller_gap_table_shows_each_vehicle_under_each_controller(page):
+    driver, _, html, _ = page
+    head = driver.execute_script("return [...document.querySelectorAll('#gap thead th')].map(c => c.textContent)")
+    assert head[:6] == [
+        "cycle",
+        "vehicle",
+        "rule [L/100 km]",
+        "ecms_drive [L/100 km]",
+        "ecms [L/100 km]",
+        "bound [L/100 km]",
+    ]
+    body = driver.execute_script(
+        "return [...document.querySelectorAll('#gap tbody tr')].map(r => [...r.children].map(c => c.textContent))"
+    )
+    shown = {r[1]: r for r in body}
+    assert list(shown) == ["oracle-1 (recommended)", "oracle-2", "prius", "conventional"]
+    assert shown["oracle-2"][2:6] == ["4.8", "4.4", "n/a", "4.1"] and shown["conventional"][3] == "n/a"
+    assert shown["oracle-1 (recommended)"][6] == "+12.5 %"  # the rule base over the bound: 4.5 / 4.0
+    intro = driver.execute_script("return document.getElementById('gap-intro').textContent")
+    assert "ftp: rule 43.8 %" in intro and "bound 50.0 %" in intro and "bound_both 48.7 %" in intro
+    assert driver.execute_script("return getComputedStyle(document.getElementById('gap-section')).display") == "block"
 
 
 def test_dragging_an_axis_filters_the_table_to_the_brushed_range_and_copies_a_designs_csv(page):

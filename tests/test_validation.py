@@ -15,6 +15,7 @@ import pytest
 from test_pareto import synthetic_front
 from typer.testing import CliRunner
 
+from hevlib.controller_gap import GAP_COLUMNS, gap_schema, soc_schema
 from hevlib.cycles import Cycle
 from hevlib.design import CHARGE_BALANCE_RESPONSES, DESIGN_VARS, OBJECTIVES, RESPONSES
 from hevlib.io import write_parquet
@@ -260,6 +261,15 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
     Path("reports/surrogate_metrics.json").write_text(json.dumps(_surrogate_metrics({"fc": -3.99}, {})))
     for source in ("nsga3", "moead", "moga"):
         Path(f"reports/optimise_{source}.json").write_text(json.dumps(OPTIMISE_REPORTS[source]))
+    out = runner.invoke(app, ["validate"])  # no controller's gap yet: one line naming the file and the command
+    assert out.exit_code == 1 and "data/bound/gap.parquet: no such file; run `hev bound` first" in out.output
+    ids = [str(d) for d in res.selected["design_id"]]
+    write_parquet("data/bound/gap.parquet", _gap_table(ids[1:]), gap_schema())  # another shortlist's table
+    write_parquet("data/bound/soc.parquet", _soc_table(ids), soc_schema())
+    out = runner.invoke(app, ["validate"])
+    assert out.exit_code == 1 and f"has no row for {ids[0]} (another shortlist?)" in out.output
+    gap = _gap_table(ids)
+    write_parquet("data/bound/gap.parquet", gap, gap_schema())
     out = runner.invoke(app, ["validate"])
     assert out.exit_code == 0, "".join(traceback.format_exception(*out.exc_info)) if out.exc_info else out.output
     table = pd.read_parquet("reports/validation.parquet")
@@ -314,6 +324,66 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
         assert Path(f"reports/plots/validation/{png}").stat().st_size > 0
         assert f"plots/validation/{png}" in summary
     assert set(OBJECTIVES) - {"accel_dev", "e_l", "speed_dev"} <= {r for r in IMPROVEMENT_RESPONSES}
+    # the controller's gap in the answer: every pick and both cars under each controller, the saving under each
+    cg = metrics["controller_gap"]
+    assert cg["recommended"] == rec["design"]["design_id"] and list(cg["by_cycle"]) == ["ftp", "hwfet"]
+    g = gap.set_index(["vehicle", "cycle"])
+    for cycle, c in cg["by_cycle"].items():
+        assert list(c["vehicles"]) == [*ids, "prius", "conventional"]
+        r, conv = g.loc[(cg["recommended"], cycle)], g.loc[("conventional", cycle)]
+        assert c["saving_pct"]["rule"] == pytest.approx(100 * (1 - r["rule_fc_hot"] / conv["rule_fc_hot"]))
+        assert c["saving_pct"]["ecms_drive"] == pytest.approx(100 * (1 - r["ecms_drive_fc_hot"] / conv["rule_fc_hot"]))
+        assert c["saving_pct"]["bound"] == pytest.approx(100 * (1 - r["bound_fc"] / conv["rule_fc_hot"]))
+        assert c["saving_pct"]["bound_both"] == pytest.approx(100 * (1 - r["bound_fc"] / conv["bound_fc"]))
+        assert c["saving_pct"]["rule"] < c["saving_pct"]["ecms_drive"] < c["saving_pct"]["bound"]
+        for v, e in c["vehicles"].items():
+            row = g.loc[(v, cycle)]
+            assert e["fc_l_100km"]["rule"] == pytest.approx(row["rule_fc_hot"])
+            assert e["over_bound_pct"]["rule"] == pytest.approx(100 * (row["rule_fc_hot"] / row["bound_fc"] - 1))
+        assert c["vehicles"]["conventional"]["fc_l_100km"]["ecms_drive"] is None  # no battery: no ECMS
+    assert "### How much the controller leaves on the table" in summary
+    assert f"| ftp | {cg['recommended']} (recommended) |" in summary
+    assert f"ftp: rule {cg['by_cycle']['ftp']['saving_pct']['rule']:.1f} %" in summary
+    assert Path("reports/plots/validation/soc_controllers_ftp.png").stat().st_size > 0
+    assert "plots/validation/soc_controllers_ftp.png" in summary
+    # the seed-spread replicates validate without it
+    assert runner.invoke(app, ["validate", "--no-gap"]).exit_code == 0
+    assert "controller_gap" not in json.loads(Path("reports/validation.json").read_text())
+    assert "How much the controller leaves" not in Path("reports/summary.md").read_text()
+
+
+def _gap_table(picks: list[str]) -> pd.DataFrame:
+    """A hand-made ``hev bound`` table: on FTP and HWFET each pick's rule base 5 % above ECMS in the drive step, 8 %
+    above ECMS on the bound's model and 12 % above its bound; the Prius a little dearer; the conventional car 8.0 /
+    6.0 L/100 km under its shift logic, 2 % above its best gears."""
+    rows = []
+    for cycle, scale in (("ftp", 1.0), ("hwfet", 0.8)):
+        for i, v in enumerate([*picks, "prius", "conventional"]):
+            rule = scale * (8.0 if v == "conventional" else 4.0 + 0.1 * i)
+            hybrid = v != "conventional"
+            rows.append(
+                dict.fromkeys(GAP_COLUMNS, np.nan)
+                | {
+                    "vehicle": v,
+                    "cycle": cycle,
+                    "rule_fc_charge_balanced": rule * 1.03,
+                    "rule_fc_hot": rule,
+                    "bound_fc": rule / (1.12 if hybrid else 1.02),
+                    "ecms_fc": rule / 1.08 if hybrid else np.nan,
+                    "ecms_drive_fc_hot": rule / 1.05 if hybrid else np.nan,
+                    "note": "",
+                }
+            )
+    return pd.DataFrame(rows, columns=list(GAP_COLUMNS))
+
+
+def _soc_table(picks: list[str]) -> pd.DataFrame:
+    t = np.arange(0.0, 50.0)
+    frames = [
+        pd.DataFrame({"vehicle": v, "time_s": t, "soc_rule": 0.6, "soc_ecms_drive": 0.61, "soc_bound": 0.59})
+        for v in [*picks, "prius"]
+    ]
+    return pd.concat(frames, ignore_index=True)
 
 
 def test_summary_says_so_when_nothing_passed_screening():

@@ -4,7 +4,9 @@ One self-contained page: Plotly's own bundle (``plotly.min.js`` from the pinned 
 so that nothing is fetched), the data as JSON and a small script (``app.js``) that wires parallel
 coordinates over the seven variables and eleven objectives (brushing an axis filters the table), a scatter
 of any two axes (every source's front, the picks, the recommended design and both baselines) and a table of
-the brushed designs with "copy as a designs CSV" in the column layout ``hev simulate --designs`` reads.
+the brushed designs with "copy as a designs CSV" in the column layout ``hev simulate --designs`` reads; below it,
+the controller's gap of the shortlist and both reference cars (``validation.json``'s ``controller_gap``): each one's
+fuel under the rule base, ECMS and the bound on every bound cycle, and the recommended design's saving under each.
 
 Every number is the merged table's own float (``data/pareto/merged.parquet``, sizing cycle, simulated), written
 with Python's shortest round-trip repr; the table shows six significant digits.
@@ -14,7 +16,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
 
@@ -44,10 +46,12 @@ def explorer_data(
     recommended: str | None,
     sizing_cycle: str,
     equivalents: Sequence[str] = (),
+    controller_gap: Mapping | None = None,
 ) -> dict:
     """The page's data: axes (variables, then objectives, with units and sense), one row per merged design
     (its sources, kept/picked/equivalent/recommended flags and the values), and both baselines on the sizing
-    cycle. ``equivalents``: the recommendation's near-equivalents (``recommendation.equivalents``)."""
+    cycle. ``equivalents``: the recommendation's near-equivalents (``recommendation.equivalents``);
+    ``controller_gap``: :func:`hevlib.controller_gap.recommended_gap`'s figures (None: the page has no gap table)."""
     equivalent = set(map(str, equivalents))
     axes = [{"name": v, "unit": UNITS[v], "kind": "variable", "sense": None} for v in DESIGN_VARS]
     axes += [
@@ -85,7 +89,19 @@ def explorer_data(
         "equivalents": [str(e) for e in equivalents],
         "default_x": "m_veh",
         "default_y": "fc",
+        "gap": _clean(controller_gap) if controller_gap else None,
     }
+
+
+def _clean(value):
+    """``value`` with every non-finite float as None (the page's JSON has no NaN)."""
+    if isinstance(value, Mapping):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_clean(v) for v in value]
+    if isinstance(value, float):
+        return _num(value)
+    return value
 
 
 def explorer_html(data: dict) -> str:
@@ -98,6 +114,11 @@ def explorer_html(data: dict) -> str:
         f"red recommended ({data['recommended'] or 'none'}), purple its near-equivalents within the model's noise "
         f"({', '.join(data['equivalents']) or 'none'}), green the stock Prius. The conventional car has no "
         "hybrid variables and appears in the scatter only."
+        + (
+            " Below the table: the controller's gap of the shortlist and both reference cars (`hev bound`)."
+            if data.get("gap")
+            else ""
+        )
     )
     page = template.replace("/*TITLE*/", f"sizing cycle {data['sizing_cycle']}").replace("/*INTRO*/", intro)
     # the bundles last: nothing inside them is taken for a placeholder

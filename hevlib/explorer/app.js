@@ -110,7 +110,36 @@
     if (navigator.clipboard && navigator.clipboard.writeText) navigator.clipboard.writeText(text).catch(function () {});
   };
 
+  // ------------------------------------------------------------------ the controller's gap (hev bound; validation.json)
+  function renderGap() {
+    var G = D.gap;
+    if (!G) return;
+    var names = Object.keys(G.controllers);
+    var pct = function (v) { return v === null || v === undefined ? "n/a" : (v > 0 ? "+" : "") + v.toFixed(1) + " %"; };
+    var head = "<tr><th>cycle</th><th>vehicle</th>" + names.map(function (n) { return "<th>" + n + " [L/100 km]</th>"; }).join("") +
+      names.slice(0, -1).map(function (n) { return "<th>" + n + " over bound</th>"; }).join("") + "<th>note</th></tr>";
+    var body = "";
+    Object.keys(G.by_cycle).forEach(function (c) {
+      var V = G.by_cycle[c].vehicles;
+      Object.keys(V).forEach(function (v) {
+        var e = V[v], rec = v === G.recommended;
+        body += "<tr data-gap=\"" + c + ":" + v + "\"" + (rec ? " style=\"font-weight:bold\"" : "") + "><td>" + c + "</td><td>" +
+          v + (rec ? " (recommended)" : "") + "</td>" + names.map(function (n) { return "<td>" + fmt(e.fc_l_100km[n]) + "</td>"; }).join("") +
+          names.slice(0, -1).map(function (n) { return "<td>" + pct(e.over_bound_pct[n]) + "</td>"; }).join("") + "<td>" + e.note + "</td></tr>";
+      });
+    });
+    document.getElementById("gap").innerHTML = "<thead>" + head + "</thead><tbody>" + body + "</tbody>";
+    var savings = Object.keys(G.by_cycle).filter(function (c) { return G.by_cycle[c].saving_pct; }).map(function (c) {
+      var s = G.by_cycle[c].saving_pct;
+      return c + ": " + Object.keys(s).map(function (n) { return n + " " + (s[n] === null ? "n/a" : s[n].toFixed(1) + " %"); }).join(", ");
+    });
+    document.getElementById("gap-intro").textContent = "Fuel under " + names.map(function (n) { return n + " (" + G.controllers[n] + ")"; }).join("; ") +
+      "; " + G.yardstick + "." + (savings.length ? " Saving of the recommended design against the conventional car under each controller: " + savings.join("; ") + "." : "");
+    document.getElementById("gap-section").style.display = "block";
+  }
+
   renderTable();
   renderScatter();
+  renderGap();
   window.hevExplorer = { brushed: function () { return brushed.map(function (r) { return r.id; }); }, ready: true };
 })();

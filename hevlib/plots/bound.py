@@ -8,10 +8,10 @@ import pandas as pd
 from hevlib.plots import plt
 
 
-def gap_figure(table: pd.DataFrame, recommended: str) -> plt.Figure:
+def gap_figure(table: pd.DataFrame, recommended: str | None = None) -> plt.Figure:
     """One panel per cycle: each vehicle's fuel under its controller (hot map, SOC-corrected), under ECMS in the drive
     step and on the bound's model, and at its bound, the rule base's gap written beside it ("no bound" where there
-    is none); the recommended design named."""
+    is none); the recommended design named where given."""
     cycles = list(dict.fromkeys(table["cycle"]))
     n = table["vehicle"].nunique()
     fig, axes = plt.subplots(1, len(cycles), figsize=(5.6 * len(cycles), 0.55 * n + 2.0), squeeze=False)
@@ -39,11 +39,21 @@ def gap_figure(table: pd.DataFrame, recommended: str) -> plt.Figure:
     return fig
 
 
-def soc_figure(time_s: np.ndarray, soc_rule: np.ndarray, soc_bound: np.ndarray, title: str) -> plt.Figure:
-    """The battery's SOC along the cycle under the rule base and at the bound, from the same start."""
+#: Each controller's line in :func:`soc_figure` (a :data:`hevlib.controller_gap.SOC_COLUMNS` column: label, colour).
+SOC_LINES = {
+    "soc_rule": ("rule base", "tab:orange"),
+    "soc_ecms_drive": ("ECMS in the drive step", "tab:purple"),
+    "soc_bound": ("bound", "tab:blue"),
+}
+
+
+def soc_figure(soc: pd.DataFrame, title: str) -> plt.Figure:
+    """The battery's SOC along the cycle under each controller (one vehicle's rows of ``data/bound/soc.parquet``),
+    each from the start its fuel figure comes from; a controller without a run there is left out."""
     fig, ax = plt.subplots(figsize=(9.0, 3.4))
-    ax.plot(time_s, soc_rule, color="tab:orange", lw=1.0, label="rule base")
-    ax.plot(time_s, soc_bound, color="tab:blue", lw=1.0, label="bound")
+    for col, (label, color) in SOC_LINES.items():
+        if soc[col].notna().any():
+            ax.plot(soc["time_s"], soc[col], color=color, lw=1.0, label=label)
     ax.set(xlabel="time [s]", ylabel="SOC [-]", title=title)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)

@@ -57,12 +57,14 @@ def summarise(
     recommendation: Recommendation | None = None,
     trust: Trust | None = None,
     robustness: Mapping | None = None,
+    controller_gap: Mapping | None = None,
 ) -> ValidationSummary:
     """``reports/validation.json``: headline (first cycle) improvement table, counts, engine downsizing,
     baseline and mean-pick responses, the same improvement table for every other cycle, and the
     ``recommendation`` (:func:`recommendation`) when given; the ``trust`` of each source
     (:func:`~hevlib.validation.trust.source_trust`) and the seed spread (:func:`seed_spread` of the
-    ``robustness`` study, with its ``current`` flag)."""
+    ``robustness`` study, with its ``current`` flag); the ``controller_gap``
+    (:func:`hevlib.controller_gap.recommended_gap`) where given."""
     headline = cycles[0]
     designs, baselines = split_cycle(table, headline)
     groups = group_rows(designs, algos)
@@ -103,6 +105,7 @@ def summarise(
         recommendation=recommendation,
         trust=trust,
         **dict(zip(("seed_spread", "seed_spread_status"), seed_spread(robustness), strict=True)),
+        controller_gap=dict(controller_gap) if controller_gap is not None else None,
     )
 
 
