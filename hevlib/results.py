@@ -308,7 +308,7 @@ class ValidationSummary:
     seed_spread: dict[str, Any] | None = None
     #: whether ``seed_spread`` holds this run's figures, and if not, how to make them
     seed_spread_status: str = SEED_SPREAD_NOT_MEASURED
-    #: the controller's gap (:func:`hevlib.controller_gap.recommended_gap` of ``hev bound``'s table): every pick's and
+    #: the controller's gap (:func:`hevlib.validation.gap.recommended_gap` of ``hev bound``'s table): every pick's and
     #: both reference cars' fuel under the rule base, ECMS and the bound, the headline saving under each; omitted
     #: where the stage ran without it (``hev validate --no-gap``: the seed-spread replicates)
     controller_gap: dict[str, Any] | None = field(default=None, metadata=OMIT_NONE)

@@ -25,6 +25,7 @@ from hevlib.validation import (
     load_cycles,
     prius_design,
     recommendation,
+    recommended_gap,
     simulate_twins,
     source_trust,
     summarise,
@@ -33,8 +34,9 @@ from hevlib.validation import (
     validation_schema,
     validation_table,
 )
-from stages.bound import GAP, SOC
 from stages.cli import app
+from stages.common import BOUND_GAP as GAP
+from stages.common import BOUND_SOC as SOC
 from stages.common import PARAMS_OPTION, params_from, stage
 from stages.simulating import CYCLES_DIR, cycle_named, simulator
 
@@ -73,10 +75,8 @@ def _trust(sources: list[str]):
 
 
 def _controller_gap(selected, recommended: str | None) -> tuple[dict, object]:
-    """The controller's gap in the answer (:func:`hevlib.controller_gap.recommended_gap` of ``hev bound``'s table for
+    """The controller's gap in the answer (:func:`hevlib.validation.gap.recommended_gap` of ``hev bound``'s table for
     this shortlist) and the SOC traces the figure of the recommended design draws from."""
-    from hevlib.controller_gap import recommended_gap
-
     for path in (GAP, SOC):
         if not path.exists():
             raise FileNotFoundError(f"{path}: no such file; run `hev bound` first (or `hev validate --no-gap`)")

@@ -197,7 +197,7 @@ def test_bad_controller_settings_stop_with_one_line_naming_the_key(tmp_path, roo
 
 
 def test_hev_bound_writes_the_gap_of_each_pick_and_both_cars(stage_dir, root):
-    from hevlib.controller_gap import recommended_gap
+    from hevlib.validation import recommended_gap
     from stages.cli import app, register_all
 
     register_all()

@@ -9,10 +9,11 @@ import pandas as pd
 import pytest
 from browser import chromium, wait_for
 
-from hevlib.controller_gap import GAP_COLUMNS, recommended_gap
+from hevlib.controller_gap import GAP_COLUMNS
 from hevlib.design import DESIGN_VARS, OBJECTIVES, read_designs
 from hevlib.explorer import explorer_data, explorer_html
 from hevlib.io import read_table, write_table
+from hevlib.validation import recommended_gap
 
 N = 40
 

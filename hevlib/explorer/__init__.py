@@ -51,7 +51,7 @@ def explorer_data(
     """The page's data: axes (variables, then objectives, with units and sense), one row per merged design
     (its sources, kept/picked/equivalent/recommended flags and the values), and both baselines on the sizing
     cycle. ``equivalents``: the recommendation's near-equivalents (``recommendation.equivalents``);
-    ``controller_gap``: :func:`hevlib.controller_gap.recommended_gap`'s figures (None: the page has no gap table)."""
+    ``controller_gap``: :func:`hevlib.validation.gap.recommended_gap`'s figures (None: the page has no gap table)."""
     equivalent = set(map(str, equivalents))
     axes = [{"name": v, "unit": UNITS[v], "kind": "variable", "sense": None} for v in DESIGN_VARS]
     axes += [

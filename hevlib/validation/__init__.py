@@ -9,12 +9,14 @@ recommend one. One module per job:
 - :mod:`~hevlib.validation.bags` -- the FTP bag by bag;
 - :mod:`~hevlib.validation.trust` -- the trust of each source: its model's held-out quality, flagged where
   worse than a constant on an objective it optimises;
+- :mod:`~hevlib.validation.gap` -- the controller's gap in the answer (``hev bound``'s table);
 - :mod:`~hevlib.validation.summary` -- ``reports/validation.json``, ``headline.json`` and ``answer.json``.
 
 This package's face names what the stages use.
 """
 
 from hevlib.validation.bags import FTP_BAGS_S, bag_figures, ftp_bags
+from hevlib.validation.gap import recommended_gap
 from hevlib.validation.improvement import (
     ALL,
     BASELINE_ALGO,
@@ -78,6 +80,7 @@ __all__ = [
     "load_cycles",
     "prius_design",
     "recommendation",
+    "recommended_gap",
     "seed_spread",
     "simulate_twins",
     "source_trust",

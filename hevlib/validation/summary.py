@@ -64,7 +64,7 @@ def summarise(
     ``recommendation`` (:func:`recommendation`) when given; the ``trust`` of each source
     (:func:`~hevlib.validation.trust.source_trust`) and the seed spread (:func:`seed_spread` of the
     ``robustness`` study, with its ``current`` flag); the ``controller_gap``
-    (:func:`hevlib.controller_gap.recommended_gap`) where given."""
+    (:func:`hevlib.validation.gap.recommended_gap`) where given."""
     headline = cycles[0]
     designs, baselines = split_cycle(table, headline)
     groups = group_rows(designs, algos)
