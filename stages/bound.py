@@ -10,10 +10,11 @@ from pathlib import Path
 import typer
 
 from stages.cli import app
-from stages.common import BOUND_GAP as GAP
-from stages.common import BOUND_SOC as SOC
 from stages.common import PARAMS_OPTION, params_from, progress_callback, stage
 from stages.simulating import cycle_named, simulator
+
+GAP = Path("data/bound/gap.parquet")  # the gap table (hevlib.controller_gap.GAP_COLUMNS), read by `hev validate`
+SOC = Path("data/bound/soc.parquet")  # every power-split vehicle's SOC on the first cycle under each controller
 
 
 @app.command("bound")

@@ -20,9 +20,6 @@ PARAMS_OPTION = typer.Option("params.yaml", "--params", help="params file to val
 #: The judged scale's reference set (``hev judge``): it normalises every hypervolume the optimise, pareto and
 #: benchmark stages report.
 REFERENCE = Path("data/judge/reference.parquet")
-#: ``hev bound``'s table of the controller's gap (written there, read by ``hev validate``) and its SOC traces.
-BOUND_GAP = Path("data/bound/gap.parquet")
-BOUND_SOC = Path("data/bound/soc.parquet")
 #: Where ``hev benchmark-run`` writes each run and ``hev benchmark-report`` reads them.
 BENCHMARK_RUNS_DIR = Path("data/benchmark/runs")
 _OPEN: list = []  # what a running stage opened (a simulator's executor: a Dask cluster): closed with it

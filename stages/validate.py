@@ -35,8 +35,6 @@ from hevlib.validation import (
     validation_table,
 )
 from stages.cli import app
-from stages.common import BOUND_GAP as GAP
-from stages.common import BOUND_SOC as SOC
 from stages.common import PARAMS_OPTION, params_from, stage
 from stages.simulating import CYCLES_DIR, cycle_named, simulator
 
@@ -50,6 +48,8 @@ ANSWER = Path("reports/answer.json")  # the declared DVC metric: the headline un
 SUMMARY = Path("reports/summary.md")
 EXPLORER = Path("reports/explorer.html")
 MERGED = Path("data/pareto/merged.parquet")
+GAP = Path("data/bound/gap.parquet")  # the controller's gap of the shortlist (`hev bound`, stages/bound.py)
+SOC = Path("data/bound/soc.parquet")  # its SOC traces under each controller
 PLOTS_DIR = Path("reports/plots/validation")
 ROBUSTNESS = Path("reports/robustness/summary.json")  # the seed spread (`hev robustness report`), if measured
 SURROGATE_METRICS = Path("reports/surrogate_metrics.json")  # the surrogates' held-out quality (`hev surrogates`)

@@ -196,6 +196,13 @@ def test_bad_controller_settings_stop_with_one_line_naming_the_key(tmp_path, roo
         load_params(path)
 
 
+def test_validate_reads_the_table_where_bound_writes_it():
+    import stages.bound
+    import stages.validate
+
+    assert (stages.validate.GAP, stages.validate.SOC) == (stages.bound.GAP, stages.bound.SOC)
+
+
 def test_hev_bound_writes_the_gap_of_each_pick_and_both_cars(stage_dir, root):
     from hevlib.validation import recommended_gap
     from stages.cli import app, register_all
