@@ -169,8 +169,12 @@ def test_a_trace_no_control_can_drive_is_said(sim, cycles):
     # admissible control on some step, and the gap table says so instead of a figure
     with pytest.raises(Infeasible, match="no admissible control on step"):
         fuel_bound(sim.vehicle(None, "prius"), cycles["us06"], COARSE)
-    table = controller_gap({"prius": sim.vehicle(None, "prius")}, {"us06": cycles["us06"]}, COARSE, ecms_gain=20.0)
+    gap = controller_gap({"prius": sim.vehicle(None, "prius")}, {"us06": cycles["us06"]}, COARSE, ecms_gain=20.0)
+    table = gap.table
     assert np.isnan(table["bound_fc"].iloc[0]) and "does not meet the trace" in table["note"].iloc[0]
+    # its SOC traces all the same: the rule base's and ECMS's where they ran, none for the bound
+    assert len(gap.soc) == cycles["us06"].n_steps and gap.soc["soc_bound"].isna().all()
+    assert gap.soc["soc_rule"].notna().all()
 
 
 @pytest.mark.parametrize(
