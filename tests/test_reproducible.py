@@ -82,12 +82,6 @@ def test_a_fresh_clone_runs_the_default_pipeline_to_the_committed_bytes(tmp_path
 KNOWN_STALE = {
     "benchmarks/surrogate/dvc.yaml": "its lock predates the code (the runs were made before the pins of 7db92b8); "
     "rerunning it takes about 2 h, and its run folders (data/benchmark/runs, git-ignored, not cached) are in no clone",
-    "benchmarks/robustness/dvc.yaml": "the kernel gained ECMS in the drive step (cbf674c) and the chain's validate the "
-    "controller's gap (102202a; its replicates run `hev validate --no-gap`): the simulator's source and the chain's "
-    "code are in every replicate's fingerprint, so the seed spread (6 replicates, about 80 min alone) is rerun on this "
-    "code; "
-    "its replicate 0 reproduces the default answer (moead-29, rec_fc_cb_pct 32.28) and the others are kept on disk "
-    "by fingerprint until the study completes",
 }
 
 
