@@ -8,10 +8,10 @@ import pandas as pd
 from hevlib.plots import plt
 
 
-def gap_figure(table: pd.DataFrame, recommended: str | None = None) -> plt.Figure:
+def gap_figure(table: pd.DataFrame) -> plt.Figure:
     """One panel per cycle: each vehicle's fuel under its controller (hot map, SOC-corrected), under ECMS in the drive
     step and on the bound's model, and at its bound, the rule base's gap written beside it ("no bound" where there
-    is none); the recommended design named where given."""
+    is none)."""
     cycles = list(dict.fromkeys(table["cycle"]))
     n = table["vehicle"].nunique()
     fig, axes = plt.subplots(1, len(cycles), figsize=(5.6 * len(cycles), 0.55 * n + 2.0), squeeze=False)
@@ -30,8 +30,7 @@ def gap_figure(table: pd.DataFrame, recommended: str | None = None) -> plt.Figur
         for i, r in rows.iterrows():
             text = f"{r['gap_pct']:+.1f} %" if np.isfinite(r["gap_pct"]) else "no bound"
             ax.text(top * 1.02, i, text, va="center", fontsize=7)
-        labels = [f"{v} (recommended)" if v == recommended else v for v in rows["vehicle"]]
-        ax.set_yticks(y, labels, fontsize=7)
+        ax.set_yticks(y, list(rows["vehicle"]), fontsize=7)
         ax.invert_yaxis()
         ax.set(xlim=(0, top * 1.25), xlabel="fuel, SOC-corrected, hot map [L/100 km]", title=cname)
         ax.grid(axis="x", alpha=0.3)
