@@ -38,11 +38,10 @@ import pandas as pd
 import yaml
 # isort: on
 
-from hevlib.design import DESIGN_VARS, OBJECTIVES, RESPONSES
-from hevlib.indicators import nondominated_mask, to_minimisation
+from hevlib.design import DESIGN_VARS, RESPONSES
 from hevlib.io import write_json, write_parquet
 from hevlib.optimise.resim import resimulate
-from hevlib.params import load_params
+from hevlib.params import load_params, parse_params
 from hevlib.pareto import table_schema
 from hevlib.recommend import FAMILY_SHARE, same_family
 from hevlib.sim.simulator import Simulator
@@ -62,7 +61,7 @@ def ecms_raw(params_path: Path) -> dict:
 
 def resimulated_fronts(sources: list[str], params, components: Path, scratch: Path) -> tuple[int, float]:
     """Every source's last front simulated again on the sizing cycle under ``params`` (ECMS), written into the
-    scratch folder's ``data/pareto/<source>.parquet`` with its dominance flag recomputed; its archive linked."""
+    scratch folder's ``data/pareto/<source>.parquet``; its archive linked."""
     from hevlib.cycles import Cycle
 
     name = params.cycles.sizing
@@ -76,11 +75,9 @@ def resimulated_fronts(sources: list[str], params, components: Path, scratch: Pa
             r = resimulate(last[list(DESIGN_VARS)].to_numpy(dtype=float), simulate)
             for k in RESPONSES:
                 last[f"sim_{k}"] = r[k].to_numpy(dtype=last[f"sim_{k}"].dtype)
-            Fs = to_minimisation(r[list(OBJECTIVES)].to_numpy(dtype=float))
-            finite = np.all(np.isfinite(Fs), axis=1)
-            nd = np.zeros(len(last), dtype=bool)
-            nd[finite] = nondominated_mask(Fs[finite])
-            last["nondominated_sim"] = nd
+            # the rule base's dominance flag out: the pareto stage recomputes dominance over the merged fronts
+            # (hevlib.pareto.FRONT_FLAGS)
+            last = last.drop(columns=["nondominated_sim"])
             write_parquet(scratch / "data/pareto" / f"{s}.parquet", last, table_schema(last))
             link = scratch / "data/pareto" / f"{s}_archive.parquet"
             link.symlink_to(ROOT / "data/pareto" / f"{s}_archive.parquet")
@@ -131,7 +128,7 @@ def crossed(raw: dict, designs: dict[str, dict], cycle_name: str) -> dict:
     X = np.array([[d[v] for v in DESIGN_VARS] for d in designs.values()], dtype=float)
     out = {}
     for strategy in ("fuzzy", "ecms"):
-        p = load_params_raw({**raw, "pms": {**raw["pms"], "strategy": strategy}})
+        p = parse_params({**raw, "pms": {**raw["pms"], "strategy": strategy}})
         with Simulator.from_params(p, components_dir=str(ROOT / "data/components")) as sim:
             r = sim.run(X, cycle, charge_balanced=True)
             conv = float(sim.run(None, cycle, "conventional")["fc"].iloc[0])
@@ -144,14 +141,6 @@ def crossed(raw: dict, designs: dict[str, dict], cycle_name: str) -> dict:
             for i, label in enumerate(designs)
         }
     return out
-
-
-def load_params_raw(raw: dict):
-    """Validated params from a raw mapping (through a temporary file: the one loader every stage uses)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "params.yaml"
-        path.write_text(yaml.safe_dump(raw, sort_keys=False))
-        return load_params(path)
 
 
 def main() -> None:
