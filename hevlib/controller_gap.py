@@ -15,6 +15,7 @@ import pyarrow as pa
 
 from hevlib.bound import Bound, BoundGrid, Infeasible, controls, ecms_fuel, fuel_bound, gear_bound
 from hevlib.cycles import Cycle
+from hevlib.io import finite_or_none
 from hevlib.sim.powertrain import layout as L
 
 #: Columns of :func:`controller_gap`'s table, with their units.
@@ -323,10 +324,6 @@ LEAVES_OUT: tuple[str, ...] = (
 )
 
 
-def _finite(x) -> float | None:
-    return float(x) if x is not None and np.isfinite(x) else None
-
-
 def _spread(values: pd.Series) -> dict[str, float | None]:
     v = values.dropna()
     if not v.size:
@@ -345,7 +342,7 @@ def gap_report(table: pd.DataFrame, grid: BoundGrid, convergence: Mapping, *, ec
 
     def one(rows: pd.DataFrame, vehicle: str, col: str) -> float | None:
         hit = rows.loc[rows["vehicle"] == vehicle, col]
-        return _finite(hit.iloc[0]) if len(hit) else None
+        return finite_or_none(hit.iloc[0]) if len(hit) else None
 
     by_cycle = {}
     for cname, rows in table.groupby("cycle", sort=False):

@@ -23,6 +23,9 @@ glibc's libm           ``exp``, ``log``, ``pow``, ``sin``... have   ``GLIBC_TUNA
                        FMA variants chosen per CPU; numba's         the SSE2 variants on every CPU
                        kernels and numpy's baseline call them
 Python                 string hashing (pymoo's resumed NSGA-III)    ``PYTHONHASHSEED=1``
+BoTorch                qLog(N)EHVI's fused C++ kernel, compiled at  its pure-PyTorch path (:func:`botorch_logei`):
+                       run time with ``-march=native`` where a      the fused and pure values differ by up to
+                       compiler and ninja are found                 9e-16, so ``nehvi`` took the machine's path
 =====================  ==========================================  ==============================================
 
 Left free, because it does not change a result: numba's target CPU (no fast-math anywhere, so LLVM neither
@@ -152,6 +155,23 @@ def torch():
             pass
         _route_vector_math(_torch)
     return _torch
+
+
+@functools.cache
+def botorch_logei():
+    """BoTorch's ``acquisition.multi_objective.logei`` module with its fused C++ kernel off: import
+    qLogNoisyExpectedHypervolumeImprovement through this. BoTorch 0.18 builds ``csrc/logei_fused.cpp`` with
+    ``-O3 -march=native`` into ``~/.cache/torch_extensions`` the first time such an acquisition is made, wherever a
+    compiler and ninja are found, and runs the pure-PyTorch path elsewhere: machine-specific SIMD code on one
+    machine, another rounding on the next (and a process killed mid-compile leaves a lock every later run waits on
+    for ever). Marking the load as attempted with no module keeps every machine on the pure path."""
+    torch()  # the pins of torch itself first
+    from botorch.acquisition.multi_objective import logei
+
+    if not disabled():
+        logei._load_attempted = True
+        logei._C = None
+    return logei
 
 
 # ------------------------------------------------------------------------- torch's vector math (MKL VM)
@@ -309,6 +329,9 @@ def check() -> list[str]:
             problems.append(f"torch: capability {t.backends.cpu.get_cpu_capability()}, not DEFAULT")
         if not vector_math_routed():
             problems.append("torch: exp, log, sqrt... on MKL's vector math (import it through determinism.torch)")
+    logei = sys.modules.get("botorch.acquisition.multi_objective.logei")
+    if logei is not None and getattr(logei, "_C", None) is not None:
+        problems.append("botorch: qLogNEHVI's fused C++ kernel is loaded (import it through determinism.botorch_logei)")
     return problems
 
 
@@ -317,6 +340,7 @@ __all__ = [
     "OFF_SWITCH",
     "PINNED",
     "VECTOR_MATH",
+    "botorch_logei",
     "check",
     "disabled",
     "ensure_pinned",

@@ -30,19 +30,25 @@ _SENSE_OF = dict(zip(OBJECTIVES, SENSE, strict=True))
 
 
 # ------------------------------------------------------------------ minimisation form, dominance
-def nondominated_mask(F: np.ndarray) -> np.ndarray:
-    """Boolean mask of the rows of ``F`` (n, m; all minimised, finite) that no other row dominates
-    (moocore's ``is_nondominated``, in C: Kung, Luccio and Preparata's algorithm, O(n log n) for up to 3
-    objectives and O(n log^(m-2) n) beyond, the naive O(m n^2) loop for small n).
+def nondominated_mask(F: np.ndarray, among: np.ndarray | None = None) -> np.ndarray:
+    """Boolean mask of the rows of ``F`` (n, m; all minimised) that no other row dominates (moocore's
+    ``is_nondominated``, in C: Kung, Luccio and Preparata's algorithm, O(n log n) for up to 3 objectives and
+    O(n log^(m-2) n) beyond, the naive O(m n^2) loop for small n).
 
-    Duplicated rows do not dominate each other, so all copies of a non-dominated point are kept.
+    A row with a non-finite objective (a run that failed) and, when ``among`` (n,) is given, a row outside it
+    neither competes nor is ever non-dominated. Duplicated rows do not dominate each other, so all copies of a
+    non-dominated point are kept.
     """
     F = np.asarray(F, dtype=float)
     if F.ndim != 2:
         raise ValueError(f"non-dominated filter: expected an (n, m) objective matrix, got shape {F.shape}")
-    if len(F) == 0:
-        return np.zeros(0, dtype=bool)
-    return np.asarray(moocore.is_nondominated(F, keep_weakly=True), dtype=bool)
+    competes = np.all(np.isfinite(F), axis=1)
+    if among is not None:
+        competes &= np.asarray(among, dtype=bool)
+    out = np.zeros(len(F), dtype=bool)
+    if competes.any():
+        out[competes] = np.asarray(moocore.is_nondominated(F[competes], keep_weakly=True), dtype=bool)
+    return out
 
 
 def sense_of(objectives: Sequence[str]) -> np.ndarray:

@@ -60,6 +60,14 @@ def _jsonable(obj, digits: int | None = JSON_SIGNIFICANT_DIGITS):
     return obj
 
 
+def finite_or_none(x) -> float | None:
+    """``x`` as a float, or None where it is missing or not finite (a report's null)."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
 def write_json(path: str | os.PathLike, data: dict, *, digits: int | None = JSON_SIGNIFICANT_DIGITS) -> None:
     """Write ``data`` as indented JSON (NaN/inf as null), atomically; floats to ``digits`` significant
     digits (``None``: exact, for data that must round-trip)."""

@@ -489,6 +489,28 @@ class BayesParams(_Strict):
     seed: Seed = 0
 
 
+class TsParegoParams(_Strict):
+    """Batch Thompson-sampling ParEGO on pathwise GP samples (``optimise.tsparego``; hevlib/optimise/tsparego.py),
+    the large-budget source: rounds of ``batch`` designs from the DOE until the run's budget. Run by the benchmark
+    (benchmarks/surrogate/dvc.yaml, at ``benchmark.budget``); not yet a source of the default pipeline."""
+
+    batch: Annotated[int, Field(ge=1, le=10_000)] = 100  # designs per round (one pathwise sample each)
+    pool: Annotated[int, Field(ge=1, le=1_000_000)] = 4000  # admissible Latin-hypercube candidates per round
+    local_pool: Annotated[int, Field(ge=0, le=1_000_000)] = 2000  # candidates around the front, in the trust region
+    subset: Annotated[int, Field(ge=2, le=100_000)] = 300  # designs the hyperparameters are fitted on
+    refit_every: Annotated[int, Field(ge=1, le=1000)] = 4  # rounds between fits (warm-started)
+    n_features: Annotated[int, Field(ge=16, le=100_000)] = 1024  # random Fourier features of each prior path
+    tr_init: Annotated[float, Field(gt=0, le=1)] = 0.2  # trust region's edge, share of each variable's range
+    tr_min: Annotated[float, Field(gt=0, le=1)] = 0.02
+    tr_max: Annotated[float, Field(gt=0, le=1)] = 0.8
+
+    @model_validator(mode="after")
+    def _trust_region(self):
+        if not self.tr_min <= self.tr_init <= self.tr_max:
+            raise ValueError(f"tr_init: must lie in [tr_min, tr_max] = [{self.tr_min}, {self.tr_max}]")
+        return self
+
+
 class JudgeParams(_Strict):
     """The judged scale (``hev judge``): a Latin hypercube of admissible designs (exact rules met, integers
     and gear sets repaired) simulated once; its screen-passing designs' ideal and nadir normalise every
@@ -510,6 +532,7 @@ class OptimiseParams(_Strict):
     infill: InfillParams = InfillParams()
     judge: JudgeParams = JudgeParams()
     bayes: dict[Literal["parego", "nehvi"], BayesParams] = {}  # BoTorch sources (their own stage)
+    tsparego: TsParegoParams = TsParegoParams()  # the large-budget source (the benchmark's, not yet a default one)
     sources: list[Literal["nsga3", "moead", "moga", "parego", "nehvi", "oracle"]] = ["nsga3", "moead", "moga", "oracle"]
 
     @model_validator(mode="after")
@@ -527,7 +550,9 @@ class OptimiseParams(_Strict):
 
 # --------------------------------------------------------------------------------------- benchmark
 # a new source goes at the end: a run's seed depends on its source's position (hevlib.benchmark.runs.run_seed)
-BENCHMARK_SOURCES = ("nsga3", "moead", "moga", "parego", "nsga3_direct", "moead_direct", "lhs", "oracle", "nehvi")
+BENCHMARK_SOURCES = (
+    "nsga3", "moead", "moga", "parego", "nsga3_direct", "moead_direct", "lhs", "oracle", "nehvi", "tsparego",
+)  # fmt: skip
 
 
 class DirectParams(_Strict):

@@ -57,7 +57,9 @@ def run_path(source: str, run: int, runs_dir: Path = BENCHMARK_RUNS_DIR) -> Path
 @app.command("benchmark-run")
 @stage
 def benchmark_run_stage(
-    source: str = typer.Argument(..., help="nsga3, moead, moga, parego, nsga3_direct, moead_direct, lhs or oracle"),
+    source: str = typer.Argument(
+        ..., help="nsga3, moead, moga, parego, nehvi, tsparego, nsga3_direct, moead_direct, lhs or oracle"
+    ),
     params: str = PARAMS_OPTION,
     fresh: bool = typer.Option(False, "--fresh", help="run every seed again, even those already on disk"),
     runs_dir: Path = typer.Option(BENCHMARK_RUNS_DIR, "--runs-dir", help="where the runs are written"),

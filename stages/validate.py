@@ -17,6 +17,7 @@ from hevlib.results import ParetoSummary, from_json, to_json
 from hevlib.robustness import settings_fingerprint
 from hevlib.validation import (
     answer,
+    check_covers,
     cold_start_window_s,
     cycle_notes,
     eligible_ids,
@@ -74,14 +75,14 @@ def _trust(sources: list[str]):
     return source_trust(_read_json(SURROGATE_METRICS), reports, sources, SURROGATE_METRICS.as_posix())
 
 
-def _controller_gap(selected, recommended: str | None) -> tuple[dict, object]:
-    """The controller's gap in the answer (:func:`hevlib.validation.gap.recommended_gap` of ``hev bound``'s table for
-    this shortlist) and the SOC traces the figure of the recommended design draws from."""
+def _gap_inputs(selected):
+    """``hev bound``'s gap table and SOC traces, read (and checked to cover this shortlist) before any simulation."""
     for path in (GAP, SOC):
         if not path.exists():
             raise FileNotFoundError(f"{path}: no such file; run `hev bound` first (or `hev validate --no-gap`)")
-    designs = [str(d) for d in selected["design_id"]]
-    return recommended_gap(read_table(GAP), designs, recommended), read_table(SOC)
+    table = read_table(GAP)
+    check_covers(table, [str(d) for d in selected["design_id"]])
+    return table, read_table(SOC)
 
 
 @app.command("validate")
@@ -105,6 +106,7 @@ def validate(
     pareto = from_json(ParetoSummary, json.loads(PARETO_JSON.read_text()))
     algos = list(pareto.by_algo)  # the algorithms the pareto stage merged, in its order
     prius_x = prius_design(params.baseline.prius)
+    gap_table, soc = _gap_inputs(selected) if gap else (None, None)
 
     sim = simulator(params)
     table = validation_table(sim, selected, cycles, prius_x)
@@ -120,7 +122,8 @@ def validate(
         rec = rec.with_ftp_bags(ftp_bags(sim, table, selected, rec.design.design_id, cycles[0], prius_x))
     robustness = _robustness(params_path)
     rec_id = rec.design.design_id if rec.design is not None else None
-    controller_gap, soc = _controller_gap(selected, rec_id) if gap else (None, None)
+    designs = [str(d) for d in selected["design_id"]]
+    controller_gap = recommended_gap(gap_table, designs, rec_id) if gap else None
     summary = summarise(
         table,
         algos,

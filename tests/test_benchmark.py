@@ -130,6 +130,9 @@ def tiny_cfg():
                     update={"batch": 10, "num_restarts": 1, "raw_samples": 16, "mc_samples": 8}
                 )
             },
+            "tsparego": o.tsparego.model_copy(
+                update={"batch": 10, "pool": 200, "local_pool": 100, "subset": 40, "n_features": 64}
+            ),
         }
     )
     bench = cfg.benchmark.model_copy(
@@ -150,18 +153,19 @@ def _context(cfg) -> RunContext:
     return RunContext(cfg, stand_in_simulate, _make_problem, X_doe, stand_in_simulate(X_doe))
 
 
-@pytest.mark.parametrize("source", ["lhs", "nsga3_direct", "moead", "parego", "oracle"])
+@pytest.mark.parametrize("source", ["lhs", "nsga3_direct", "moead", "parego", "tsparego", "oracle"])
 def test_a_run_records_every_simulation_in_order(tiny_cfg, source):
-    if source == "parego":  # a BoTorch design costs about a second: a smaller budget
-        tiny_cfg = tiny_cfg.model_copy(update={"benchmark": tiny_cfg.benchmark.model_copy(update={"budget": 33})})
+    if source in ("parego", "tsparego"):  # BoTorch's fits and designs cost seconds: a smaller budget
+        budget = {"parego": 33, "tsparego": 45}[source]
+        tiny_cfg = tiny_cfg.model_copy(update={"benchmark": tiny_cfg.benchmark.model_copy(update={"budget": budget})})
     ctx = _context(tiny_cfg)
     table = run_source(ctx, source, 0)
     assert table.schema.equals(RUN_SCHEMA)
     df = table.to_pandas()
     np.testing.assert_array_equal(df["sim_index"], np.arange(1, len(df) + 1))
-    if source in ("moead", "parego"):  # the DOE counts, first
+    if source in ("moead", "parego", "tsparego"):  # the DOE counts, first
         np.testing.assert_array_equal(df[["p_eng_kw", "p_mot_kw"]].to_numpy()[:27], ctx.X_doe[:, :2])
-    if source in ("lhs", "parego"):
+    if source in ("lhs", "parego", "tsparego"):
         assert len(df) == tiny_cfg.benchmark.budget
     if source == "moead":
         assert len(df) >= tiny_cfg.benchmark.budget

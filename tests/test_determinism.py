@@ -200,3 +200,28 @@ def test_every_unary_op_whose_bytes_follow_mkls_branch_is_routed(tmp_path):
     compatible, auto = run("COMPATIBLE"), run("AUTO")
     moved = {n for n in compatible if compatible[n] != auto[n]}
     assert moved <= set(determinism.VECTOR_MATH), sorted(moved - set(determinism.VECTOR_MATH))
+
+
+def test_botorchs_fused_nehvi_kernel_is_never_compiled(tmp_path, monkeypatch):
+    """BoTorch 0.18 compiles qLog(N)EHVI's fused C++ kernel with ``-march=native`` the first time such an acquisition
+    is built (where a compiler and ninja are found): made through ``determinism.botorch_logei`` it runs the
+    pure-PyTorch path on every machine, compiles nothing, and ``check`` flags a fused kernel loaded behind its back."""
+    if determinism.disabled():
+        pytest.skip("pins switched off")
+    monkeypatch.setenv("TORCH_EXTENSIONS_DIR", str(tmp_path))
+    torch = determinism.torch()
+    logei = determinism.botorch_logei()
+    from botorch.models import SingleTaskGP
+
+    X = torch.rand(8, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(0))
+    Y = torch.stack([X.sum(-1), (1 - X).prod(-1)], dim=-1)
+    acq = logei.qLogNoisyExpectedHypervolumeImprovement(
+        SingleTaskGP(X, Y), ref_point=[0.0, 0.0], X_baseline=X, prune_baseline=False
+    )
+    value = acq(X[:2].unsqueeze(1))
+    assert value.shape == (2,) and torch.isfinite(value).all()
+    assert logei._C is None and logei._load_attempted
+    assert not list(tmp_path.iterdir()), "a torch extension was built"
+    assert not [p for p in determinism.check() if p.startswith("botorch")]
+    monkeypatch.setattr(logei, "_C", object())
+    assert [p for p in determinism.check() if p.startswith("botorch")]

@@ -52,6 +52,9 @@ BAD = [
     ("baseline.prius.n_s", 80, "baseline.prius.n_s: 80 sun teeth must be fewer than n_r = 78"),
     ("cycles.cycles.udds.file", "udds.txt", "cycles.cycles.udds.file: String should match pattern"),
     ("baseline.conventional.upshift_kmh", [40.0, 24.0, 64.0, 75.0], "baseline.conventional.upshift_kmh: speeds"),
+    ("optimise.tsparego.subset", 1, "optimise.tsparego.subset: Input should be greater than or equal to 2"),
+    ("optimise.tsparego.tr_init", 0.9, "optimise.tsparego.tr_init: must lie in [tr_min, tr_max] = [0.02, 0.8]"),
+    ("optimise.tsparego.trust", 0.5, "optimise.tsparego.trust: unknown key"),
 ]
 
 #: A coast-down road load (the 2022 Corolla 20-ZE2C/2's, lbf and mph) and a body that takes it.

@@ -105,6 +105,19 @@ def test_nondominated_on_continuous_data_matches_brute_force():
     np.testing.assert_array_equal(nondominated_mask(F), brute_nondominated(F))
 
 
+def test_failed_runs_and_rows_outside_among_neither_compete_nor_survive():
+    """A row with a non-finite objective would dominate every other row by its finite part: it is left out, and
+    the rest are filtered among themselves; ``among`` does the same for rows a screen refused."""
+    F = np.array([[0.0, 0.0], [1.0, 2.0], [2.0, 1.0], [3.0, 3.0], [-1.0, np.nan], [-1.0, -1.0]])
+    np.testing.assert_array_equal(nondominated_mask(F[:4]), [True, False, False, False])
+    got = nondominated_mask(F[1:5])
+    np.testing.assert_array_equal(got, [True, True, False, False])  # the NaN row neither dominates nor survives
+    among = np.array([False, True, True, True, True, False])
+    np.testing.assert_array_equal(nondominated_mask(F, among=among), [False, True, True, False, False, False])
+    assert nondominated_mask(np.zeros((0, 3))).shape == (0,)
+    assert not nondominated_mask(np.full((2, 2), np.inf)).any()
+
+
 def test_objective_matrix_negates_maximised_objectives():
     df = synthetic_front(5, 0)
     F = objective_matrix(df)

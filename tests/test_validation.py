@@ -261,6 +261,7 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
     Path("reports/surrogate_metrics.json").write_text(json.dumps(_surrogate_metrics({"fc": -3.99}, {})))
     for source in ("nsga3", "moead", "moga"):
         Path(f"reports/optimise_{source}.json").write_text(json.dumps(OPTIMISE_REPORTS[source]))
+    FakeSimulator.calls.clear()
     out = runner.invoke(app, ["validate"])  # no controller's gap yet: one line naming the file and the command
     assert out.exit_code == 1 and "data/bound/gap.parquet: no such file; run `hev bound` first" in out.output
     ids = [str(d) for d in res.selected["design_id"]]
@@ -268,6 +269,7 @@ def test_validate_stage_writes_table_metrics_summary_and_plots(tmp_path, monkeyp
     write_parquet("data/bound/soc.parquet", _soc_table(ids), soc_schema())
     out = runner.invoke(app, ["validate"])
     assert out.exit_code == 1 and f"has no row for {ids[0]} (another shortlist?)" in out.output
+    assert not FakeSimulator.calls  # both stopped before simulating anything
     gap = _gap_table(ids)
     write_parquet("data/bound/gap.parquet", gap, gap_schema())
     out = runner.invoke(app, ["validate"])

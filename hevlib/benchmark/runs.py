@@ -14,6 +14,8 @@ Sources (``params.benchmark.sources``):
   infill of ``params.optimise.infill``, rounds until the budget;
 - ``parego``, ``nehvi`` -- BoTorch's qLogNParEGO and qLogNEHVI (:mod:`hevlib.optimise.bayesopt`) with the
   settings of ``params.optimise.bayes`` but the benchmark's budget, from the same DOE;
+- ``tsparego`` -- batch Thompson-sampling ParEGO on pathwise GP samples (:mod:`hevlib.optimise.tsparego`) with
+  the settings of ``params.optimise.tsparego`` at the benchmark's budget, from the same DOE;
 - ``nsga3_direct``, ``moead_direct`` -- the same optimisers on the simulator at small populations;
 - ``lhs`` -- a seeded Latin hypercube, integers and gear sets repaired as the optimisers' are;
 - ``oracle`` -- ``params.optimise.oracle`` (the study's 200 x 500 on the simulator).
@@ -36,10 +38,11 @@ from hevlib.optimise.archive import ARCHIVE_SCHEMA, SimulationLog
 from hevlib.optimise.bayesopt import BayesSettings, bayes_search
 from hevlib.optimise.infill import oracle, surrogate_assisted
 from hevlib.optimise.problem import RulesOnly, admissible_lhs
+from hevlib.optimise.tsparego import TsParegoSettings, tsparego
 from hevlib.params import BENCHMARK_SOURCES, AlgoParams, Params
 from hevlib.surrogates import fit_surrogate
 
-BAYES = ("parego", "nehvi")
+BAYES = ("parego", "nehvi", "tsparego")  # Bayesian optimisation on BoTorch's models, from the DOE
 SAEA = ("nsga3", "moead", "moga", *BAYES)
 DIRECT = ("nsga3_direct", "moead_direct", "lhs")
 CEILING = ("oracle",)
@@ -121,13 +124,18 @@ def _saea(ctx: RunContext, source: str, seed: int, log: SimulationLog) -> str:
 
 def _bayes(ctx: RunContext, source: str, seed: int, log: SimulationLog) -> str:
     cfg = ctx.cfg
-    b = cfg.optimise.bayes.get(source)
-    if b is None:
-        raise ValueError(f"benchmark: source {source} needs optimise.bayes.{source} in params.yaml")
-    settings = BayesSettings(**b.model_dump(exclude={"budget", "seed"}), budget=cfg.benchmark.budget, seed=seed)
+    if source == "tsparego":
+        search = tsparego
+        settings = TsParegoSettings(**cfg.optimise.tsparego.model_dump(), budget=cfg.benchmark.budget, seed=seed)
+    else:
+        b = cfg.optimise.bayes.get(source)
+        if b is None:
+            raise ValueError(f"benchmark: source {source} needs optimise.bayes.{source} in params.yaml")
+        search = bayes_search
+        settings = BayesSettings(**b.model_dump(exclude={"budget", "seed"}), budget=cfg.benchmark.budget, seed=seed)
     log.record(ctx.X_doe, ctx.R_doe)
     problem = ctx.make_problem(RulesOnly())
-    bayes_search(
+    search(
         settings, problem, cfg.design_space.space(), ctx.X_doe, ctx.R_doe, log, cfg.surrogate.bnn.log_targets,
         ctx.progress,
     )  # fmt: skip

@@ -15,7 +15,6 @@ with Python's shortest round-trip repr; the table shows six significant digits.
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
@@ -23,7 +22,7 @@ from pathlib import Path
 import pandas as pd
 
 from hevlib.design import DESIGN_VARS, OBJECTIVES, SENSE, UNITS
-from hevlib.io import write_text
+from hevlib.io import finite_or_none, write_text
 from hevlib.pareto import algo_names
 from hevlib.screen import SIM
 
@@ -33,11 +32,6 @@ _HERE = resources.files(__name__)
 def plotly_bundle() -> str:
     """The minified Plotly.js that the pinned ``plotly`` Python package ships (its ``package_data``)."""
     return resources.files("plotly").joinpath("package_data/plotly.min.js").read_text(encoding="utf-8")
-
-
-def _num(v) -> float | None:
-    v = float(v)
-    return v if math.isfinite(v) else None
 
 
 def explorer_data(
@@ -70,12 +64,12 @@ def explorer_data(
                 "picked": bool(r.get("picked", False)),
                 "recommended": str(r["design_id"]) == recommended,
                 "equivalent": str(r["design_id"]) in equivalent,
-                "values": [_num(v) for v in values[i]],
+                "values": [finite_or_none(v) for v in values[i]],
             }
         )
     sources = list(dict.fromkeys(s for r in rows for s in r["sources"]))
     base = [
-        {"id": name, "baseline": True, "values": [_num(b.get(a["name"], float("nan"))) for a in axes]}
+        {"id": name, "baseline": True, "values": [finite_or_none(b.get(a["name"], float("nan"))) for a in axes]}
         for name, b in baselines.items()
     ]
     return {
@@ -100,7 +94,7 @@ def _clean(value):
     if isinstance(value, list | tuple):
         return [_clean(v) for v in value]
     if isinstance(value, float):
-        return _num(value)
+        return finite_or_none(value)
     return value
 
 

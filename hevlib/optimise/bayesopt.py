@@ -45,6 +45,7 @@ import numpy as np
 import pandas as pd
 
 from hevlib.design import DESIGN_VARS, INTEGER_MASK, OBJECTIVES, DesignSpace
+from hevlib.determinism import botorch_logei
 from hevlib.determinism import torch as _torch  # torch itself is imported on the first call
 from hevlib.optimise.problem import HevProblem
 
@@ -266,7 +267,7 @@ def propose(
     (pending points). ``X_seen``: every design simulated so far (the acquisition's baseline); ``Y_ran``:
     the natural objectives (n, 11) of those that ran (NEHVI's reference point)."""
     torch = _torch()
-    from botorch.acquisition.multi_objective.logei import qLogNoisyExpectedHypervolumeImprovement
+    qLogNoisyExpectedHypervolumeImprovement = botorch_logei().qLogNoisyExpectedHypervolumeImprovement
     from botorch.acquisition.multi_objective.objective import IdentityMCMultiOutputObjective
     from botorch.acquisition.multi_objective.parego import qLogNParEGO
     from botorch.optim.optimize_mixed import optimize_acqf_mixed_alternating

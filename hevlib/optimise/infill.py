@@ -323,11 +323,7 @@ def archive_front(tables: list[pd.DataFrame], max_size: int | None, hv: HvSettin
     a greedy choice can (farthest-point thinning, used before, lost more than a random subset does)."""
     pool = pd.concat(tables, ignore_index=True).drop_duplicates(subset=list(DESIGN_VARS), keep="last")
     F = objective_matrix(pool, OBJECTIVES, what="simulated candidates")
-    usable = np.all(np.isfinite(F), axis=1)
-    if hv.screen is not None and len(pool):
-        usable &= passes_screen(pool, hv.screen)
-    keep = np.zeros(len(pool), dtype=bool)
-    keep[usable] = nondominated_mask(F[usable])
+    keep = nondominated_mask(F, among=passes_screen(pool, hv.screen) if hv.screen is not None and len(pool) else None)
     front = pool[keep].reset_index(drop=True)
     if max_size is not None and len(front) > max_size:
         Fn = hv.norm(objective_matrix(front, OBJECTIVES))

@@ -69,10 +69,7 @@ def front_table(front: Front, sim: pd.DataFrame, problem: HevProblem, dominance:
     cols["feasible"] = np.all(G <= 0.0, axis=1)
     if dominance:
         Fs = to_minimisation(sim[list(OBJECTIVES)].to_numpy(dtype=float)) if len(front) else np.zeros((0, 11))
-        finite = np.all(np.isfinite(Fs), axis=1)
-        nd = np.zeros(len(front), dtype=bool)
-        nd[finite] = nondominated_mask(Fs[finite])
-        cols["nondominated_sim"] = nd
+        cols["nondominated_sim"] = nondominated_mask(Fs)
     return pd.DataFrame(cols)
 
 

@@ -16,7 +16,7 @@ This package's face names what the stages use.
 """
 
 from hevlib.validation.bags import FTP_BAGS_S, bag_figures, ftp_bags
-from hevlib.validation.gap import recommended_gap
+from hevlib.validation.gap import check_covers, recommended_gap
 from hevlib.validation.improvement import (
     ALL,
     BASELINE_ALGO,
@@ -80,6 +80,7 @@ __all__ = [
     "load_cycles",
     "prius_design",
     "recommendation",
+    "check_covers",
     "recommended_gap",
     "seed_spread",
     "simulate_twins",

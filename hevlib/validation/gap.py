@@ -7,13 +7,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import numpy as np
 import pandas as pd
 
-
-def _finite(x) -> float | None:
-    return float(x) if x is not None and np.isfinite(x) else None
-
+from hevlib.io import finite_or_none
 
 #: The reference cars of the gap table (every other vehicle is a pick).
 REFERENCE_CARS = ("prius", "conventional")
@@ -26,6 +22,14 @@ CONTROLLERS: dict[str, tuple[str, str]] = {
 }
 
 
+def check_covers(table: pd.DataFrame, designs: Sequence[str]) -> None:
+    """Stop unless ``hev bound``'s table has a row for every design of ``designs`` (a table of another shortlist is
+    an error, not a gap)."""
+    missing = sorted(set(designs) - set(table["vehicle"]))
+    if missing:
+        raise ValueError(f"the controller's gap table has no row for {', '.join(missing)} (another shortlist?)")
+
+
 def recommended_gap(table: pd.DataFrame, designs: Sequence[str], recommended: str | None) -> dict:
     """The controller's gap in the answer (``validation.json``'s ``controller_gap``): from ``hev bound``'s table
     (``data/bound/gap.parquet``), per cycle, the fuel of each of ``designs`` (the shortlist) and both reference cars
@@ -33,9 +37,7 @@ def recommended_gap(table: pd.DataFrame, designs: Sequence[str], recommended: st
     the bound, and the ``recommended`` design's saving against the conventional car under each controller (the
     conventional car under its shift logic; ``bound_both``: both at their bounds). Every design of ``designs`` must
     be in the table (a table of another shortlist is an error, not a gap)."""
-    missing = sorted(set(designs) - set(table["vehicle"]))
-    if missing:
-        raise ValueError(f"the controller's gap table has no row for {', '.join(missing)} (another shortlist?)")
+    check_covers(table, designs)
     by_cycle = {}
     for cname, rows in table.groupby("cycle", sort=False):
         rows = rows.set_index("vehicle")
@@ -44,7 +46,7 @@ def recommended_gap(table: pd.DataFrame, designs: Sequence[str], recommended: st
             if v not in rows.index:
                 continue
             r = rows.loc[v]
-            fc = {name: _finite(r[col]) for name, (col, _) in CONTROLLERS.items()}
+            fc = {name: finite_or_none(r[col]) for name, (col, _) in CONTROLLERS.items()}
             gap = {
                 name: (100.0 * (fc[name] / fc["bound"] - 1.0) if fc[name] is not None and fc["bound"] else None)
                 for name in CONTROLLERS

@@ -18,6 +18,7 @@ from hevlib.design import (
     RESPONSES,
     design_matrix,
 )
+from hevlib.io import finite_or_none
 from hevlib.recommend import (
     KNEE_CRITERIA,
     VALIDATED_GROUPS,
@@ -70,12 +71,7 @@ def _plain(selected_row: pd.Series) -> dict[str, float]:
 
 
 def _figures(row: pd.Series) -> dict:
-    return {r: (bool(row[r]) if r in BOOL_RESPONSES else _finite(row[r])) for r in RECOMMENDED_RESPONSES}
-
-
-def _finite(v) -> float | None:
-    v = float(v)
-    return v if np.isfinite(v) else None
+    return {r: (bool(row[r]) if r in BOOL_RESPONSES else finite_or_none(row[r])) for r in RECOMMENDED_RESPONSES}
 
 
 def eligibility(
@@ -171,9 +167,9 @@ def _equivalents(designs: pd.DataFrame, pool: np.ndarray, chosen: str, twins: pd
         draws=int(settings.draws),
         min_share=float(settings.min_share),
         seed=int(settings.seed),
-        sigma={c: _finite(v) for c, v in zip(KNEE_CRITERIA, sigma, strict=True)},
+        sigma={c: finite_or_none(v) for c, v in zip(KNEE_CRITERIA, sigma, strict=True)},
         sigma_pct_of_mean={
-            c: _finite(100 * v / np.mean(np.abs(crit[:, j])))
+            c: finite_or_none(100 * v / np.mean(np.abs(crit[:, j])))
             for j, (c, v) in enumerate(zip(KNEE_CRITERIA, sigma, strict=True))
         },
         knee_share={str(n): float(v) for n, v in zip(ids, shares, strict=True)},
@@ -195,11 +191,11 @@ def _equivalents(designs: pd.DataFrame, pool: np.ndarray, chosen: str, twins: pd
                 algo=str(x["algo"]),
                 knee_share=float(shares[i]),
                 design={v: float(x[v]) for v in DESIGN_VARS},
-                criteria={c: _finite(crit[i, j]) for j, c in enumerate(KNEE_CRITERIA)},
+                criteria={c: finite_or_none(crit[i, j]) for j, c in enumerate(KNEE_CRITERIA)},
                 vs_recommended={
                     c: {
-                        "difference": _finite(crit[i, j] - base[j]),
-                        "pct": _finite(100 * (crit[i, j] - base[j]) / abs(base[j])),
+                        "difference": finite_or_none(crit[i, j] - base[j]),
+                        "pct": finite_or_none(100 * (crit[i, j] - base[j]) / abs(base[j])),
                     }
                     for j, c in enumerate(KNEE_CRITERIA)
                 },
@@ -245,7 +241,7 @@ def recommendation(
                 **{name: _figures(base) for name, base in b.items()},
                 **{
                     f"vs_{name}": {
-                        r: _finite(
+                        r: finite_or_none(
                             improvement(r, np.array([row[r]]), base[r], base_has_battery=name not in NO_BATTERY)[0]
                         )
                         for r in RECOMMENDED_RESPONSES
