@@ -225,3 +225,22 @@ def test_botorchs_fused_nehvi_kernel_is_never_compiled(tmp_path, monkeypatch):
     assert not [p for p in determinism.check() if p.startswith("botorch")]
     monkeypatch.setattr(logei, "_C", object())
     assert [p for p in determinism.check() if p.startswith("botorch")]
+
+
+def test_every_log_ehvi_acquisition_comes_through_the_pin():
+    """No module of the project imports BoTorch's qLog(N)EHVI (whose construction compiles the fused kernel) but
+    through ``determinism.botorch_logei``: an import of its own would build the acquisition on whichever path the
+    machine has when it runs before any call of the pin."""
+    import re
+    from pathlib import Path
+
+    root = Path(determinism.__file__).resolve().parents[1]
+    pattern = re.compile(r"^\s*(from|import)\s.*(multi_objective\.logei|multi_objective import .*logei|qLog\w*EHVI|"
+                         r"qLog\w*HypervolumeImprovement)", re.M)  # fmt: skip
+    offenders = [
+        str(p.relative_to(root))
+        for folder in ("hevlib", "stages", "benchmarks")
+        for p in (root / folder).rglob("*.py")
+        if p.name != "determinism.py" and ".venv" not in p.parts and pattern.search(p.read_text())
+    ]
+    assert not offenders, offenders
