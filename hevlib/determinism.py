@@ -305,6 +305,10 @@ def status() -> dict[str, str]:
         out["torch"] = f"{t.backends.cpu.get_cpu_capability()}, {t.get_num_threads()} thread(s)"
         routed = f"numpy / scipy ({len(VECTOR_MATH)} functions)" if vector_math_routed() else "MKL"
         out["torch vector math"] = routed
+    logei = sys.modules.get("botorch.acquisition.multi_objective.logei")
+    if logei is not None:
+        fused = getattr(logei, "_C", None) is not None
+        out["botorch qLogNEHVI"] = "fused C++ kernel (loaded)" if fused else "pure PyTorch path"
     return out
 
 

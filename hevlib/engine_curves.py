@@ -140,17 +140,17 @@ def relevelled_engine(source_path: str | Path, curve: EfficiencyCurve) -> dict:
             "power_fraction": list(curve.power_fraction),
             "efficiency": list(curve.efficiency),
             "source": curve.source,
-            "rated_power_kw": _r(src.peak_power_kw),
+            "rated_power_kw": rounded(src.peak_power_kw),
         },
-        "speed_axis_rad_s": _r(speed),
-        "speed_axis_rpm": _r(speed * 30.0 / np.pi),
-        "torque_axis_nm": _r(torque),
-        "max_torque_nm": _r(src.max_torque_at(speed)),
-        "closed_throttle_torque_nm": _r(np.interp(speed, src.speed_rad_s, src.closed_throttle_torque_nm)),
-        "fuel_map_g_per_s": _r(relevelled_fuel_g_s(src, curve, speed, torque)),
+        "speed_axis_rad_s": rounded(speed),
+        "speed_axis_rpm": rounded(speed * 30.0 / np.pi),
+        "torque_axis_nm": rounded(torque),
+        "max_torque_nm": rounded(src.max_torque_at(speed)),
+        "closed_throttle_torque_nm": rounded(np.interp(speed, src.speed_rad_s, src.closed_throttle_torque_nm)),
+        "fuel_map_g_per_s": rounded(relevelled_fuel_g_s(src, curve, speed, torque)),
     }
     for gas in ("hc", "co", "nox"):
-        out[f"{gas}_map_g_per_s"] = _r(src.rate_g_s(gas, w, t))
+        out[f"{gas}_map_g_per_s"] = rounded(src.rate_g_s(gas, w, t))
     for key in _DROPPED_THERMAL:
         out["thermal_model"].pop(key, None)
     out["notes"] = [
@@ -166,7 +166,7 @@ _DROPPED = ("bsfc_map_g_per_kwh", "bsfc_map_note", "enriched_variant", "derived_
 _DROPPED_THERMAL = ("exhaust_gas_flow_map_g_per_s", "engine_out_exhaust_temperature_map_c", "note")
 
 
-def _r(a):
+def rounded(a):
     """Numbers rounded to 10 significant digits (the written file does not depend on the last bits)."""
     arr = np.asarray(a, dtype=float)
     out = np.vectorize(lambda x: float(f"{x:.10g}"))(arr) if arr.size else arr

@@ -88,8 +88,15 @@ ratio, shifted by the load-based logic like any gearbox (the simulator's gearbox
 (``upshift_kmh``, read only with ``shift_logic: speed``) upshifts where the engine turns :data:`UPSHIFT_RPM` in the
 lower gear (about the study's PTC_CONV table's: 2 460-2 980 rpm). Manual boxes of other gear counts, 1-speed
 boxes and the like are refused with one line. A power-split hybrid's row gives the stock Prius's overrides
-(``baseline.prius``: its test mass and road load; the list has no motor, generator or battery sizes, so the
-Prius's kit stays); every other kind but a conventional car is refused.
+(``baseline.prius``): its test mass and road load, and its gearing: ``i0``, the reduction from the planetary's
+ring to the wheels, is the row's ``Axle Ratio`` (an e-CVT's only fixed reduction between ring and wheels, its
+counter and final gears together: 2.83 for the 2022 Prius; its predecessor's P410 transaxle has 3.267, Toyota's
+repair manual), and the tyre is a typical one of the vehicle type (:data:`TYPICAL_RADIUS_M`, as for a CVT car: no
+ratio turns N/V into a radius; the 2022 Prius's 195/65 R15 is 0.317 m), its wheel set's inertia at that radius.
+The 2001 Prius's own 3.93 on its 0.287 m tyre turn the ring 1.5 times as fast at a given road speed, so a scaled
+kit drives its generator backwards at highway speed (power circulation) where the real car need not. The list has
+no motor, generator or battery sizes, so the Prius's kit stays (its motor on the ring, where today's transaxles
+gear it: the 2022 Prius's by 3.118, Toyota at JSAE 2016); every other kind but a conventional car is refused.
 """
 
 from __future__ import annotations
@@ -377,6 +384,11 @@ class Driveline:
         return WHEEL_SET_KG * self.radius_m**2 / 2.0
 
 
+def typical_radius_m(car: Car) -> float:
+    """A typical tyre's rolling radius for the car's vehicle type (:data:`TYPICAL_RADIUS_M`), m."""
+    return TYPICAL_RADIUS_M["Car" if car.value(VEHICLE_TYPE) == "Car" else "Truck"]
+
+
 def upshift_kmh(radius_m: float, ratios) -> list[float]:
     """Vehicle speeds (km/h, to 0.1) at which the engine turns :data:`UPSHIFT_RPM` in each gear but the top."""
     w = UPSHIFT_RPM * 2.0 * math.pi / 60.0
@@ -407,8 +419,7 @@ def driveline(car: Car) -> Driveline:
         raise UnsupportedCar(f"{car.name}: transmission {code!r} ({car.value(TRANS)}) is not one the list's rules know")
     from_box = K_NV * ratios[-1] * axle / nv if box != "cvt" else math.nan
     derived = TYRE_RADIUS_M[0] <= from_box <= TYRE_RADIUS_M[1]
-    radius = from_box if derived else TYPICAL_RADIUS_M["Car" if car.value(VEHICLE_TYPE) == "Car" else "Truck"]
-    radius = round(radius, 3)  # to the millimetre, as the profile writes it
+    radius = round(from_box if derived else typical_radius_m(car), 3)  # to the millimetre, as the profile writes it
     top = nv * radius / K_NV
     overall = tuple(i / ratios[-1] * top for i in ratios)
     return Driveline(box, tuple(ratios), source, radius, derived, from_box, top, overall)
@@ -445,14 +456,16 @@ def engine_kw(car: Car) -> float:
 
 
 def car_profile(
-    car: Car, baseline: BaselineParams, source: str | Path = TEST_CAR_LIST, engines: EpaParams | None = None
+    car: Car, baseline: BaselineParams, source: str | Path = TEST_CAR_LIST, parts: EpaParams | None = None
 ) -> list[tuple[str, str, object]]:
     """The profile of ``car``: (comment, dotted key, value) in order, for :func:`render_profile`. A conventional car
-    gives ``baseline.conventional``, a power-split hybrid ``baseline.prius`` (test mass and road load); any other
-    kind raises :class:`UnsupportedCar`. ``engines`` (params' ``epa``): the engine file of today's engines of the
-    car's kind; without it the car keeps ``baseline``'s (the study's ADVISOR maps). The body and wheel files stay
-    ``baseline``'s (params.yaml's: which file is which part is never the code's); the body's CG height, wheelbase
-    and weight split are its file's."""
+    gives ``baseline.conventional``, a power-split hybrid ``baseline.prius`` (test mass, road load, tyre and the
+    ring-to-wheel ratio ``i0``: module doc); any other
+    kind raises :class:`UnsupportedCar`. ``parts`` (params' ``epa``): the parts of today of the car's kind (its
+    engine file; a power split's wheel file, its braking blended); without it the car keeps ``baseline``'s (the
+    study's ADVISOR files). The body file and a conventional car's wheel file stay ``baseline``'s (params.yaml's:
+    which file is which part is never the code's); the body's CG height, wheelbase and weight split are its
+    file's."""
     cd, etw, hp = coast_down(car), float(car.value(ETW)), float(car.value(HP))
     lines = ("line " if len(car.lines) == 1 else "lines ") + ", ".join(str(x) for x in car.lines)
     road = (
@@ -462,13 +475,14 @@ def car_profile(
     mass = f"Equivalent Test Weight {etw:.0f} lb x 0.45359237 kg/lb"
     if car.kind == POWER_SPLIT:
         return [
-            *_engine_entry(POWER_SPLIT, engines),
+            *_engine_entry(POWER_SPLIT, parts),
             (
                 f"{road}; the Prius body file's CG height, wheelbase and weight split",
                 "baseline.prius.body",
                 {"file": baseline.prius.body.file, "coast_down": cd},
             ),
             (mass, "baseline.prius.test_mass_kg", test_mass_kg(car)),
+            *_split_gearing(car, baseline, parts),
         ]
     if car.kind != CONVENTIONAL:
         raise UnsupportedCar(f"{car.name}: {_a(car.kind)}: only conventional cars and power-split hybrids convert")
@@ -507,7 +521,7 @@ def car_profile(
                 "inertia_kg_m2": round(d.wheel_inertia_kg_m2, 3),
             },
         ),
-        *_engine_entry(CONVENTIONAL, engines),
+        *_engine_entry(CONVENTIONAL, parts),
         (
             f"Rated Horsepower {hp:g} hp x 0.745699872 kW/hp (the engine map scaled to it)",
             "baseline.conventional.p_eng_kw",
@@ -527,11 +541,44 @@ def car_profile(
     ]
 
 
-def _engine_entry(kind: str, engines: EpaParams | None) -> list[tuple[str, str, object]]:
+def _split_gearing(car: Car, baseline: BaselineParams, parts: EpaParams | None) -> list[tuple[str, str, object]]:
+    """A power split's wheels (today's blended braking with ``parts``), tyre and ring-to-wheel ratio (module doc)."""
+    axle, kind = float(car.value(AXLE)), car.value(VEHICLE_TYPE)
+    if not axle > 0:
+        raise UnsupportedCar(f"{car.name}: axle ratio {axle:g} must be positive")
+    radius = typical_radius_m(car)
+    tyre = "205/55 R16" if kind == "Car" else "235/65 R17"
+    braking = (
+        "braking blended as today's power splits do (params' epa.wheel_power_split, hev wheel-regen: the motor asked "
+        "for the whole braking demand above walking pace, within its, the battery's and the tyres' limits); "
+        if parts is not None
+        else ""
+    )
+    return [
+        (
+            f"{braking}wheel radius {radius:.3f} m: a typical {kind}'s tyre ({tyre}; the e-CVT gives no radius from "
+            "N/V); inertia: the wheel file's 181 lb set at this radius",
+            "baseline.prius.wheel",
+            {
+                "file": baseline.prius.wheel.file if parts is None else parts.wheel_power_split,
+                "radius_m": radius,
+                "inertia_kg_m2": round(WHEEL_SET_KG * radius**2 / 2.0, 3),
+            },
+        ),
+        (
+            f"Axle Ratio {axle:g}: the reduction from the planetary's ring to the wheels (the e-CVT's counter and "
+            "final gears; the 2001 Prius's is 3.93)",
+            "baseline.prius.i0",
+            axle,
+        ),
+    ]
+
+
+def _engine_entry(kind: str, parts: EpaParams | None) -> list[tuple[str, str, object]]:
     """The profile entry of a 2022 car's engine file (params' ``epa``), none without one."""
-    if engines is None:
+    if parts is None:
         return []
-    name = engines.engine_conventional if kind == CONVENTIONAL else engines.engine_power_split
+    name = parts.engine_conventional if kind == CONVENTIONAL else parts.engine_power_split
     what = "an SI engine of today" if kind == CONVENTIONAL else "the Atkinson engine of a power split of today"
     return [
         (
@@ -569,7 +616,8 @@ def render_profile(car: Car, entries: list[tuple[str, str, object]], name: str =
     ]
     if car.kind == POWER_SPLIT:
         note = (
-            "a power-split hybrid: the stock Prius takes its test mass and road load; its kit stays (the list rates "
+            "a power-split hybrid: the stock Prius takes its test mass, road load, tyre and ring-to-wheel ratio "
+            "(and, with params' epa, today's engine and brakes); its kit stays (the list rates "
             f"the engine at {engine_kw(car):g} kW and gives no motor, generator or battery)"
         )
     else:

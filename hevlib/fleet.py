@@ -165,12 +165,13 @@ def select_tests(tests: pd.DataFrame) -> Selection:
     return Selection(cases.reset_index(drop=True), excluded.reset_index(drop=True))
 
 
-def car_overrides(car: epa.Car, baseline: BaselineParams, engines: EpaParams | None = None) -> dict:
-    """The params overrides that make ``car`` one of the simulator's baselines (:func:`hevlib.epa.car_profile`). A
-    power-split hybrid is the stock Prius with the row's test mass and road load, its engine at the row's rated
-    power and the rest of the kit (motor, generator, battery modules) scaled with it from the Prius's: the list
-    gives no motor, generator or battery sizes."""
-    over = epa.profile_overrides(epa.car_profile(car, baseline, engines=engines))
+def car_overrides(car: epa.Car, baseline: BaselineParams, parts: EpaParams | None = None) -> dict:
+    """The params overrides that make ``car`` one of the simulator's baselines (:func:`hevlib.epa.car_profile`; with
+    ``parts``, params' ``epa``, today's engine and a power split's blended braking). A power-split hybrid is the
+    stock Prius with the row's test mass, road load and ring-to-wheel ratio on a typical tyre, its engine at the
+    row's rated power and the rest of the kit (motor, generator, battery modules) scaled with it from the Prius's:
+    the list gives no motor, generator or battery sizes."""
+    over = epa.profile_overrides(epa.car_profile(car, baseline, parts=parts))
     if car.kind == epa.POWER_SPLIT:
         p = baseline.prius
         scale = epa.engine_kw(car) / p.p_eng_kw

@@ -641,12 +641,14 @@ class ValidateParams(_Strict):
 
 
 class EpaParams(_Strict):
-    """``hev car`` and the fleet validation (``benchmarks/fleet``): the engine file a car of EPA's 2022 test car list
-    gets, by kind, in ``baseline.components_dir`` (``hev engine-map``: a map of today's engines; the study's own
-    cars keep ``baseline``'s)."""
+    """``hev car`` and the fleet validation (``benchmarks/fleet``): the parts of today a car of EPA's 2022 test car
+    list gets, by kind, in ``baseline.components_dir``: its engine file (``hev engine-map``: a map of today's
+    engines) and a power split's wheel file (``hev wheel-regen``: braking blended as today's power splits blend it);
+    the study's own cars keep ``baseline``'s."""
 
     engine_conventional: ComponentFile
     engine_power_split: ComponentFile
+    wheel_power_split: ComponentFile
 
 
 class BoundParams(_Strict):

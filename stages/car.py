@@ -25,7 +25,7 @@ def car(
     params: str = PARAMS_OPTION,
 ) -> None:
     """Write a params profile for a car of the EPA test car list: its test mass, coast-down road load, engine
-    power and gears (a power-split hybrid: the stock Prius's test mass and road load)."""
+    power and gears (a power-split hybrid: the stock Prius's test mass, road load, tyre and axle ratio)."""
     from hevlib.epa import car_profile, check_profile, find_car, read_test_car_list, render_profile
 
     p = params_from(params)

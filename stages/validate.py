@@ -75,13 +75,14 @@ def _trust(sources: list[str]):
     return source_trust(_read_json(SURROGATE_METRICS), reports, sources, SURROGATE_METRICS.as_posix())
 
 
-def _gap_inputs(selected):
-    """``hev bound``'s gap table and SOC traces, read (and checked to cover this shortlist) before any simulation."""
+def _gap_inputs(designs: list[str]):
+    """``hev bound``'s gap table and SOC traces, read (and checked to cover the shortlist's ``designs``) before any
+    simulation."""
     for path in (GAP, SOC):
         if not path.exists():
             raise FileNotFoundError(f"{path}: no such file; run `hev bound` first (or `hev validate --no-gap`)")
     table = read_table(GAP)
-    check_covers(table, [str(d) for d in selected["design_id"]])
+    check_covers(table, designs)
     return table, read_table(SOC)
 
 
@@ -106,7 +107,8 @@ def validate(
     pareto = from_json(ParetoSummary, json.loads(PARETO_JSON.read_text()))
     algos = list(pareto.by_algo)  # the algorithms the pareto stage merged, in its order
     prius_x = prius_design(params.baseline.prius)
-    gap_table, soc = _gap_inputs(selected) if gap else (None, None)
+    designs = [str(d) for d in selected["design_id"]]
+    gap_table, soc = _gap_inputs(designs) if gap else (None, None)
 
     sim = simulator(params)
     table = validation_table(sim, selected, cycles, prius_x)
@@ -122,7 +124,6 @@ def validate(
         rec = rec.with_ftp_bags(ftp_bags(sim, table, selected, rec.design.design_id, cycles[0], prius_x))
     robustness = _robustness(params_path)
     rec_id = rec.design.design_id if rec.design is not None else None
-    designs = [str(d) for d in selected["design_id"]]
     controller_gap = recommended_gap(gap_table, designs, rec_id) if gap else None
     summary = summarise(
         table,

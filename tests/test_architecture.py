@@ -55,6 +55,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "hevlib.epa",
             "hevlib.lookup",
             "hevlib.powers",
+            "hevlib.regen_curves",
             "hevlib.scaling",
             "hevlib.sim",
             "hevlib.sizing",

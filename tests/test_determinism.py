@@ -223,8 +223,10 @@ def test_botorchs_fused_nehvi_kernel_is_never_compiled(tmp_path, monkeypatch):
     assert logei._C is None and logei._load_attempted
     assert not list(tmp_path.iterdir()), "a torch extension was built"
     assert not [p for p in determinism.check() if p.startswith("botorch")]
+    assert determinism.status()["botorch qLogNEHVI"] == "pure PyTorch path"  # what `hev platform` prints
     monkeypatch.setattr(logei, "_C", object())
     assert [p for p in determinism.check() if p.startswith("botorch")]
+    assert determinism.status()["botorch qLogNEHVI"].startswith("fused")
 
 
 def test_every_log_ehvi_acquisition_comes_through_the_pin():

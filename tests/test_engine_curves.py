@@ -113,6 +113,6 @@ def test_a_2022_car_gets_todays_engine_of_its_kind():
     ]:
         which = {"vehicle_id": "CN7U10MC175F"} if model == "ELANTRA" else {}
         car = epa.find_car(table, "HYUNDAI" if model == "ELANTRA" else "TOYOTA", model, **which)
-        with_engine = epa.profile_overrides(epa.car_profile(car, params.baseline, engines=params.epa))
+        with_engine = epa.profile_overrides(epa.car_profile(car, params.baseline, parts=params.epa))
         assert with_engine[key] == name
         assert key not in epa.profile_overrides(epa.car_profile(car, params.baseline))

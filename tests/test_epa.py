@@ -218,7 +218,7 @@ def test_the_three_thousand_pound_elantra(table):
     assert (epa.test_mass_kg(car), epa.engine_kw(car)) == (1360.8, 109.6)
 
 
-def test_a_hybrid_row_gives_the_stock_prius_its_test_mass_and_road_load(table):
+def test_a_hybrid_row_gives_the_stock_prius_its_test_mass_road_load_and_gearing(table):
     car = _car(table, "TOYOTA", "COROLLA HYBRID")
     entries = {key: value for _, key, value in epa.car_profile(car, BASELINE, "list.csv")}
     assert entries == {
@@ -227,8 +227,21 @@ def test_a_hybrid_row_gives_the_stock_prius_its_test_mass_and_road_load(table):
             "coast_down": {"a_lbf": 15.891, "b_lbf_per_mph": 0.36102, "c_lbf_per_mph2": 0.012344},
         },
         "baseline.prius.test_mass_kg": 1530.9,  # 3375 lb
+        # a car's typical tyre (205/55 R16), the 181 lb wheel set at its radius: 82.086 kg x 0.316^2 / 2
+        "baseline.prius.wheel": {"file": "WH_PRIUS_JPN.yaml", "radius_m": 0.316, "inertia_kg_m2": 4.098},
+        "baseline.prius.i0": 2.83,  # the row's Axle Ratio: ring to wheels (not the 2001 Prius's 3.93)
     }
     assert car.lines == (3737,)  # the FTP test, not the cold-CO one (line 3734) with its cold road load
+
+
+def test_a_hybrid_truck_takes_a_truck_tyre_and_its_own_axle_ratio(table):
+    car = _car(table, "TOYOTA", "SIENNA", config=0)
+    entries = {key: value for _, key, value in epa.car_profile(car, BASELINE, "list.csv")}
+    # 235/65 R17; 82.086 kg x 0.369^2 / 2 = 5.588 kg m^2; the row's Axle Ratio 3.64
+    assert entries["baseline.prius.wheel"] == {"file": "WH_PRIUS_JPN.yaml", "radius_m": 0.369, "inertia_kg_m2": 5.588}
+    assert entries["baseline.prius.i0"] == 3.64
+    # the ring turns slower per road speed than on the 2001 Prius (3.93 on 0.287 m): less power circulation
+    assert entries["baseline.prius.i0"] / 0.369 < BASELINE.prius.i0 / BASELINE.prius.wheel.radius_m
 
 
 @pytest.mark.parametrize(
