@@ -181,7 +181,8 @@ def engine_file(source_path: str | Path, curve_name: str) -> dict:
 
 
 def render(data: dict) -> str:
-    """The engine file's YAML text (the layout of the converted ADVISOR files: one map row per line)."""
+    """A derived component file's YAML text (an engine's, a wheel's: the layout of the converted ADVISOR files, one
+    map row per line)."""
     import yaml
 
     return yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=10**6, allow_unicode=True)

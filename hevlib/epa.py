@@ -199,6 +199,8 @@ AUTOMATIC_CODES = ("A", "SA", "AM", "AMS", "OT")
 TYRE_RADIUS_M = (0.29, 0.43)
 #: A typical tyre's radius where the row's cannot be derived, m: 205/55 R16 (a car), 235/65 R17 (a truck).
 TYPICAL_RADIUS_M = {"Car": 0.316, "Truck": 0.369}
+#: ... and its size, as the profile's comment names it.
+TYPICAL_TYRE = {"Car": "205/55 R16", "Truck": "235/65 R17"}
 #: The wheel file's wheel set (WH_SMCAR: 181 lb as a solid cylinder of the rolling radius), kg.
 WHEEL_SET_KG = 181.0 / 2.205
 UPSHIFT_RPM = 2750.0  #: engine speed of the speed table's upshifts, rpm
@@ -381,12 +383,22 @@ class Driveline:
 
     @property
     def wheel_inertia_kg_m2(self) -> float:
-        return WHEEL_SET_KG * self.radius_m**2 / 2.0
+        return wheel_set_inertia_kg_m2(self.radius_m)
+
+
+def wheel_set_inertia_kg_m2(radius_m: float) -> float:
+    """The wheel file's wheel set (:data:`WHEEL_SET_KG`) as a solid cylinder of rolling radius ``radius_m``."""
+    return WHEEL_SET_KG * radius_m**2 / 2.0
+
+
+def _typical(car: Car) -> str:
+    """The key of :data:`TYPICAL_RADIUS_M` and :data:`TYPICAL_TYRE` for the car's vehicle type."""
+    return "Car" if car.value(VEHICLE_TYPE) == "Car" else "Truck"
 
 
 def typical_radius_m(car: Car) -> float:
     """A typical tyre's rolling radius for the car's vehicle type (:data:`TYPICAL_RADIUS_M`), m."""
-    return TYPICAL_RADIUS_M["Car" if car.value(VEHICLE_TYPE) == "Car" else "Truck"]
+    return TYPICAL_RADIUS_M[_typical(car)]
 
 
 def upshift_kmh(radius_m: float, ratios) -> list[float]:
@@ -460,12 +472,11 @@ def car_profile(
 ) -> list[tuple[str, str, object]]:
     """The profile of ``car``: (comment, dotted key, value) in order, for :func:`render_profile`. A conventional car
     gives ``baseline.conventional``, a power-split hybrid ``baseline.prius`` (test mass, road load, tyre and the
-    ring-to-wheel ratio ``i0``: module doc); any other
-    kind raises :class:`UnsupportedCar`. ``parts`` (params' ``epa``): the parts of today of the car's kind (its
-    engine file; a power split's wheel file, its braking blended); without it the car keeps ``baseline``'s (the
-    study's ADVISOR files). The body file and a conventional car's wheel file stay ``baseline``'s (params.yaml's:
-    which file is which part is never the code's); the body's CG height, wheelbase and weight split are its
-    file's."""
+    ring-to-wheel ratio ``i0``: module doc); any other kind raises :class:`UnsupportedCar`. ``parts`` (params'
+    ``epa``): the parts of today of the car's kind (its engine file; a power split's wheel file, its braking
+    blended); without it the car keeps ``baseline``'s (the study's ADVISOR files). The body file and a conventional
+    car's wheel file stay ``baseline``'s (params.yaml's: which file is which part is never the code's); the body's
+    CG height, wheelbase and weight split are its file's."""
     cd, etw, hp = coast_down(car), float(car.value(ETW)), float(car.value(HP))
     lines = ("line " if len(car.lines) == 1 else "lines ") + ", ".join(str(x) for x in car.lines)
     road = (
@@ -494,7 +505,7 @@ def car_profile(
         )
     else:
         reason = "a CVT" if d.box == "cvt" else f"N/V, axle and box give {d.radius_from_box_m:.3f} m, not a tyre's"
-        tyre = "205/55 R16" if car.value(VEHICLE_TYPE) == "Car" else "235/65 R17"
+        tyre = TYPICAL_TYRE[_typical(car)]
         why = f"a typical {car.value(VEHICLE_TYPE)}'s tyre ({tyre}; {reason})"
     ratios = [round(x, 4) for x in d.ratios]
     top = f"the top overall ratio N/V {car.value(NV):g} rpm/mph x r / K = {d.top_overall:.4f}"
@@ -546,8 +557,7 @@ def _split_gearing(car: Car, baseline: BaselineParams, parts: EpaParams | None) 
     axle, kind = float(car.value(AXLE)), car.value(VEHICLE_TYPE)
     if not axle > 0:
         raise UnsupportedCar(f"{car.name}: axle ratio {axle:g} must be positive")
-    radius = typical_radius_m(car)
-    tyre = "205/55 R16" if kind == "Car" else "235/65 R17"
+    radius, tyre = typical_radius_m(car), TYPICAL_TYRE[_typical(car)]
     braking = (
         "braking blended as today's power splits do (params' epa.wheel_power_split, hev wheel-regen: the motor asked "
         "for the whole braking demand above walking pace, within its, the battery's and the tyres' limits); "
@@ -562,7 +572,7 @@ def _split_gearing(car: Car, baseline: BaselineParams, parts: EpaParams | None) 
             {
                 "file": baseline.prius.wheel.file if parts is None else parts.wheel_power_split,
                 "radius_m": radius,
-                "inertia_kg_m2": round(WHEEL_SET_KG * radius**2 / 2.0, 3),
+                "inertia_kg_m2": round(wheel_set_inertia_kg_m2(radius), 3),
             },
         ),
         (

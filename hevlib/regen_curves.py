@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from hevlib.components.files import read_component_file
-from hevlib.engine_curves import render, rounded
+from hevlib.engine_curves import rounded
 
 KMH_PER_MPH = 1.609344
 
@@ -120,11 +120,6 @@ def wheel_file(source_path: str | Path, curve_name: str) -> dict:
     if curve_name not in CURVES:
         raise KeyError(f"curve {curve_name!r}: one of {', '.join(CURVES)}")
     return blended_wheel(source_path, CURVES[curve_name])
-
-
-def render_wheel(data: dict) -> str:
-    """The wheel file's YAML text (:func:`hevlib.engine_curves.render`'s layout)."""
-    return render(data)
 
 
 def tabulation_error(curve: RegenCurve) -> float:

@@ -57,7 +57,8 @@ def wheel_regen(
 ) -> None:
     """Write a wheel file whose driveline share of braking is a published regeneration curve (FASTSim's), the
     motor, battery and tyre limits capping it in the drive step (hevlib/regen_curves.py)."""
-    from hevlib.regen_curves import CURVES, render_wheel, wheel_file
+    from hevlib.engine_curves import render
+    from hevlib.regen_curves import CURVES, wheel_file
 
-    _write_derived(source, curve, CURVES, wheel_file, render_wheel, out)
+    _write_derived(source, curve, CURVES, wheel_file, render, out)
     typer.echo(f"wheel-regen: {source.name} braking blended by {curve} -> {out}")

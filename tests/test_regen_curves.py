@@ -13,8 +13,9 @@ from typer.testing import CliRunner
 
 from hevlib import epa
 from hevlib.components.files import load_wheel
+from hevlib.engine_curves import render
 from hevlib.params import parse_params
-from hevlib.regen_curves import CURVES, SPEED_MPH, RegenCurve, render_wheel, tabulation_error, wheel_file
+from hevlib.regen_curves import CURVES, SPEED_MPH, RegenCurve, tabulation_error, wheel_file
 from stages.cli import app
 
 RAW = Path("data/raw/components")
@@ -28,7 +29,7 @@ def test_the_committed_file_is_what_the_command_writes(tmp_path):
         app, ["wheel-regen", "--source", str(RAW / SOURCE), "--curve", CURVE.name, "--out", str(out)]
     )
     assert res.exit_code == 0, res.output
-    assert out.read_text() == (RAW / DERIVED).read_text() == render_wheel(wheel_file(RAW / SOURCE, CURVE.name))
+    assert out.read_text() == (RAW / DERIVED).read_text() == render(wheel_file(RAW / SOURCE, CURVE.name))
 
 
 def test_the_curve_is_fastsims():
